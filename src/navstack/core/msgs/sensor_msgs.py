@@ -1,0 +1,220 @@
+"""sensor_msgs and nav_msgs equivalents used by sensors, mapping and navigation."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.core.msgs.geometry_msgs import (
+    Point,
+    Pose,
+    Pose2D,
+    PoseStamped,
+    PoseWithCovariance,
+    Quaternion,
+    TransformStamped,
+    TwistWithCovariance,
+    Vector3,
+)
+from navstack.core.msgs.std import Header
+
+
+def _empty_f32() -> NDArray[np.float32]:
+    return np.zeros(0, dtype=np.float32)
+
+
+def _zeros3x3() -> NDArray[np.float64]:
+    return np.zeros((3, 3))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LaserScan:
+    """sensor_msgs/LaserScan.  ``ranges`` float32 [m]; ``inf`` means no return.
+
+    Beam ``i`` points at ``angle_min + i * angle_increment`` in ``header.frame_id``.
+    """
+
+    header: Header = field(default_factory=Header)
+    angle_min: float = 0.0
+    angle_max: float = 0.0
+    angle_increment: float = 0.0
+    time_increment: float = 0.0
+    scan_time: float = 0.0
+    range_min: float = 0.0
+    range_max: float = 0.0
+    ranges: NDArray[np.float32] = field(default_factory=_empty_f32)
+    intensities: NDArray[np.float32] = field(default_factory=_empty_f32)
+
+    def angles(self) -> NDArray[np.float64]:
+        """Beam angles [rad], one per range."""
+        return self.angle_min + self.angle_increment * np.arange(len(self.ranges))
+
+    def points(self) -> NDArray[np.float64]:
+        """``(M, 2)`` end points of the valid returns in the scan frame."""
+        r = np.asarray(self.ranges, dtype=np.float64)
+        a = self.angles()
+        ok = np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+        return np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PointCloud:
+    """PointCloud2 equivalent: ``xyz`` float32 array of shape (N, 3) in the header frame."""
+
+    header: Header = field(default_factory=Header)
+    xyz: NDArray[np.float32] = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Imu:
+    """sensor_msgs/Imu.  A covariance with element [0, 0] == -1 means "not provided"."""
+
+    header: Header = field(default_factory=Header)
+    orientation: Quaternion = field(default_factory=Quaternion)
+    orientation_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
+    angular_velocity: Vector3 = field(default_factory=Vector3)
+    angular_velocity_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
+    linear_acceleration: Vector3 = field(default_factory=Vector3)
+    linear_acceleration_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
+
+
+@dataclass(frozen=True, slots=True)
+class NavSatStatus:
+    """sensor_msgs/NavSatStatus: ``status`` -1 no fix, 0 fix, 1 SBAS, 2 GBAS."""
+
+    STATUS_NO_FIX = -1
+    STATUS_FIX = 0
+    status: int = 0
+    service: int = 1
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class NavSatFix:
+    """sensor_msgs/NavSatFix: WGS84 degrees and metres above the ellipsoid."""
+
+    COVARIANCE_TYPE_UNKNOWN = 0
+    COVARIANCE_TYPE_DIAGONAL_KNOWN = 2
+    header: Header = field(default_factory=Header)
+    status: NavSatStatus = field(default_factory=NavSatStatus)
+    latitude: float = 0.0
+    longitude: float = 0.0
+    altitude: float = 0.0
+    position_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
+    position_covariance_type: int = 0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Odometry:
+    """nav_msgs/Odometry: pose in ``header.frame_id``, twist in ``child_frame_id``."""
+
+    header: Header = field(default_factory=Header)
+    child_frame_id: str = ""
+    pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
+    twist: TwistWithCovariance = field(default_factory=TwistWithCovariance)
+
+
+@dataclass(frozen=True, slots=True)
+class MapMetaData:
+    """nav_msgs/MapMetaData: ``origin`` is the pose of cell (0, 0)'s outer corner."""
+
+    map_load_time: float = 0.0
+    resolution: float = 0.05
+    width: int = 0
+    height: int = 0
+    origin: Pose = field(default_factory=Pose)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class OccupancyGrid:
+    """nav_msgs/OccupancyGrid.  ``data`` is int8 of shape (height, width), row 0 at the
+    map origin (lowest y), values 0..100 occupancy probability and -1 unknown.
+    """
+
+    header: Header = field(default_factory=Header)
+    info: MapMetaData = field(default_factory=MapMetaData)
+    data: NDArray[np.int8] = field(default_factory=lambda: np.zeros((0, 0), np.int8))
+
+    def world_to_cell(self, x: float, y: float) -> tuple[int, int]:
+        """(row, col) of the cell containing map-frame point (x, y); may be out of bounds."""
+        o = self.info.origin.to_pose2d()
+        dx, dy = x - o.x, y - o.y
+        c, s = math.cos(-o.theta), math.sin(-o.theta)
+        lx, ly = c * dx - s * dy, s * dx + c * dy
+        return int(math.floor(ly / self.info.resolution)), int(math.floor(lx / self.info.resolution))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Path:
+    """nav_msgs/Path: a sequence of stamped poses in ``header.frame_id``."""
+
+    header: Header = field(default_factory=Header)
+    poses: tuple[PoseStamped, ...] = ()
+
+    @staticmethod
+    def from_array(xyt: NDArray[np.float64], frame_id: str = "map", stamp: float = 0.0) -> Path:
+        """Build from an ``(N, 3)`` array of (x, y, theta)."""
+        h = Header(stamp, frame_id)
+        return Path(h, tuple(PoseStamped(h, Pose2D(float(r[0]), float(r[1]), float(r[2])).to_pose())
+                             for r in np.asarray(xyt)))
+
+    def as_array(self) -> NDArray[np.float64]:
+        """``(N, 3)`` array of (x, y, theta)."""
+        if not self.poses:
+            return np.zeros((0, 3))
+        return np.array([[p.pose.position.x, p.pose.position.y, p.pose.orientation.yaw]
+                         for p in self.poses])
+
+    def length(self) -> float:
+        xy = self.as_array()[:, :2]
+        return float(np.sum(np.hypot(*np.diff(xy, axis=0).T))) if len(xy) > 1 else 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class TFMessage:
+    """tf2_msgs/TFMessage."""
+
+    transforms: tuple[TransformStamped, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class ColorRGBA:
+    r: float = 0.0
+    g: float = 0.0
+    b: float = 0.0
+    a: float = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class Marker:
+    """visualization_msgs/Marker (subset): type, pose, scale and points."""
+
+    ARROW = 0
+    CUBE = 1
+    SPHERE = 2
+    CYLINDER = 3
+    LINE_STRIP = 4
+    LINE_LIST = 5
+    POINTS = 8
+    TEXT_VIEW_FACING = 9
+    ADD = 0
+    DELETE = 2
+    header: Header = field(default_factory=Header)
+    ns: str = ""
+    id: int = 0
+    type: int = 0
+    action: int = 0
+    pose: Pose = field(default_factory=Pose)
+    scale: Vector3 = field(default_factory=lambda: Vector3(1.0, 1.0, 1.0))
+    color: ColorRGBA = field(default_factory=ColorRGBA)
+    points: tuple[Point, ...] = ()
+    text: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class MarkerArray:
+    """visualization_msgs/MarkerArray."""
+
+    markers: tuple[Marker, ...] = ()
