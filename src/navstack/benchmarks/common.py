@@ -11,17 +11,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from navstack.core.registry import PluginRegistry
-
-SuiteFn = Callable[[bool, Path | None], "BenchResult"]
-SUITES: PluginRegistry[str] = PluginRegistry("benchmark suite")
-"""Suite name -> module path (imported lazily so one suite's deps never slow another)."""
-
-
-def suite(name: str, module: str) -> None:
-    SUITES.register(name, module)
-
-
 @dataclass
 class BenchResult:
     """What a suite measured: named metrics (numbers) plus per-case rows."""

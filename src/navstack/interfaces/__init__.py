@@ -1,0 +1,1 @@
+"""User-facing interfaces: CLI, Python API, web dashboard, reports."""

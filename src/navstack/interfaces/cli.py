@@ -1,0 +1,143 @@
+"""The ``navstack`` command line (typer).
+
+Every subcommand has ``--help``.  Errors that a user can fix (bad config, unknown world,
+missing map file) print one line ``error: ...`` and exit with code 2 — never a traceback.
+Heavy modules are imported inside the commands so ``navstack --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from navstack.core.errors import NavstackError
+
+app = typer.Typer(help="navstack: autonomous navigation for mobile robots, with a built-in "
+                  "simulator.", no_args_is_help=True, add_completion=False,
+                  pretty_exceptions_enable=False)
+
+
+def _fail(message: str) -> typer.Exit:
+    typer.echo(f"error: {message}", err=True)
+    return typer.Exit(code=2)
+
+
+def _write_json(path: Path | None, payload: dict[str, object]) -> None:
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(payload, indent=2, default=float) + "\n")
+
+
+def _parse_cmd(text: str) -> tuple[float, float]:
+    try:
+        parts = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise _fail(f"--cmd '{text}' must be two numbers 'vx,wz' (e.g. 0.3,0.2)") from None
+    if len(parts) != 2:
+        raise _fail(f"--cmd '{text}' must be two numbers 'vx,wz' (e.g. 0.3,0.2)")
+    return parts[0], parts[1]
+
+
+@app.command()
+def worlds() -> None:
+    """List the built-in worlds."""
+    from navstack.sim.worlds import list_worlds, load_world
+
+    for name in list_worlds():
+        w = load_world(name)
+        (x0, y0), (x1, y1) = w.bounds
+        typer.echo(f"{name:12s} {x1 - x0:6.1f} x {y1 - y0:5.1f} m  "
+                   f"waypoints: {', '.join(w.waypoints) or '-'}")
+
+
+@app.command()
+def robots() -> None:
+    """List the built-in robot profiles."""
+    from navstack.sim.robot import list_robots, load_robot
+
+    for name in list_robots():
+        r = load_robot(name)
+        typer.echo(f"{name:12s} {r.kinematics.type:11s} max_vel_x {r.kinematics.max_vel_x:.2f} m/s")
+
+
+@app.command()
+def sim(
+    world: Annotated[str, typer.Option(help="Built-in world name or a world/map YAML path.")] = "office",
+    robot: Annotated[str, typer.Option(help="Built-in robot profile or a robot YAML path.")] = "diff_drive",
+    duration: Annotated[float, typer.Option(help="Simulated seconds to run.")] = 10.0,
+    cmd: Annotated[str, typer.Option(help="Constant command 'vx,wz' [m/s, rad/s].")] = "0.3,0.0",
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
+) -> None:
+    """Drive a robot open-loop in a simulated world and report pose, collisions and speed."""
+    from navstack.sim.open_loop import run_open_loop
+
+    vx, wz = _parse_cmd(cmd)
+    try:
+        report = run_open_loop(world, robot, duration, vx, wz, seed)
+    except NavstackError as exc:
+        raise _fail(str(exc)) from None
+    p = report["final_pose"]
+    typer.echo(f"world {world}, robot {robot}, {duration:.1f} s simulated in "
+               f"{report['wall_time_s']:.3f} s (real-time factor {report['real_time_factor']:.0f})")
+    typer.echo(f"final pose x={p['x']:.3f} y={p['y']:.3f} yaw={p['yaw']:.3f}; "
+               f"collisions {report['collisions']}; scans {report['scans']}; "
+               f"odometry {report['odom_msgs']}")
+    _write_json(json_out, report)
+
+
+@app.command()
+def bench(
+    suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
+    quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results here.")] = None,
+    data_dir: Annotated[Path | None, typer.Option(help="Shared data folder.")] = None,
+) -> None:
+    """Run a benchmark suite; prints a table of metrics and writes JSON."""
+    from navstack.benchmarks.runner import available_suites, run_suite
+
+    if suite == "list":
+        for name in available_suites():
+            typer.echo(name)
+        return
+    try:
+        result = run_suite(suite, quick, data_dir)
+    except NavstackError as exc:
+        raise _fail(str(exc)) from None
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"navstack bench {suite}{' (quick)' if quick else ''}")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, value in result.metrics.items():
+        table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+    for note in result.notes:
+        typer.echo(f"note: {note}")
+    _write_json(json_out, result.to_json())
+
+
+@app.command()
+def version() -> None:
+    """Print the navstack version."""
+    from navstack import __version__
+
+    typer.echo(__version__)
+
+
+def main() -> None:
+    """Console entry point."""
+    try:
+        app()
+    except NavstackError as exc:  # last line of defence: one line, no traceback
+        typer.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

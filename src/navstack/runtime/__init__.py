@@ -1,0 +1,1 @@
+"""Runtime: scheduler & clock, typed bus, lifecycle nodes, config loading, launch."""
