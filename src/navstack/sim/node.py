@@ -1,0 +1,125 @@
+"""``SimulatorNode``: the simulator on the bus.
+
+Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
+(nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link, and map -> odom when
+``perfect_localization`` is on so navigation can run before localization exists),
+``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
+(the true pose in ``map``).  Each sensor runs on its own timer at its configured rate.
+"""
+
+from __future__ import annotations
+
+from navstack.core.msgs import (
+    Clock,
+    Header,
+    Imu,
+    LaserScan,
+    Odometry,
+    Pose2D,
+    TFMessage,
+    Transform,
+    TransformStamped,
+    Twist,
+    Vector3,
+)
+from navstack.core.msgs.geometry_msgs import Quaternion
+from navstack.runtime.bus import SENSOR_DATA, QoS
+from navstack.runtime.node import Node, Runtime
+from navstack.sim.simulator import Simulator
+
+
+class SimulatorNode(Node):
+    """Runs :class:`Simulator` physics at ``physics_rate_hz`` and publishes its sensors."""
+
+    def __init__(self, runtime: Runtime, sim: Simulator, physics_rate_hz: float = 50.0,
+                 perfect_localization: bool = True, name: str = "simulator") -> None:
+        super().__init__(name, runtime)
+        self.sim = sim
+        self.physics_dt = 1.0 / physics_rate_hz
+        self.perfect_localization = perfect_localization
+        self._last_odom_t = 0.0
+        self._last_imu_t = 0.0
+        self._odom_pose = Pose2D()
+        self.scans_published = 0
+        self.odom_published = 0
+
+    def on_configure(self) -> None:
+        self.pub_clock = self.create_publisher("/clock", Clock, QoS(depth=1))
+        self.pub_odom = self.create_publisher("/odom", Odometry, QoS(depth=10))
+        self.pub_tf = self.create_publisher("/tf", TFMessage, QoS(depth=100))
+        self.pub_tf_static = self.create_publisher("/tf_static", TFMessage,
+                                                   QoS(depth=1, latched=True))
+        self.pub_scan = self.create_publisher("/scan", LaserScan, SENSOR_DATA)
+        self.pub_imu = self.create_publisher("/imu", Imu, SENSOR_DATA)
+        self.pub_truth = self.create_publisher("/ground_truth", Odometry, QoS(depth=10))
+        self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
+        sensors = self.sim.robot.sensors
+        self.create_timer(self.physics_dt, self._physics)
+        if self.sim.lidar is not None:
+            self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
+        if self.sim.odometry is not None:
+            self.create_timer(1.0 / sensors.odometry.rate_hz, self._odom)
+        if self.sim.imu is not None:
+            self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
+        if sensors.ground_truth.enabled:
+            self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
+
+    def on_activate(self) -> None:
+        sensors = self.sim.robot.sensors
+        static = []
+        if self.sim.lidar is not None:
+            static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
+        if self.sim.imu is not None:
+            static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
+        self.pub_tf_static.publish(TFMessage(tuple(static)))
+        self._last_odom_t = self._last_imu_t = self.now
+        self._odom()
+
+    def _static_tf(self, frame: str, mount: object) -> TransformStamped:
+        m = mount
+        return TransformStamped(
+            Header(self.now, "base_link"), frame,
+            Transform(Vector3(m.x, m.y, m.z), Quaternion.from_yaw(m.yaw)))  # type: ignore[attr-defined]
+
+    # --- callbacks -------------------------------------------------------------------
+    def _on_cmd(self, msg: Twist) -> None:
+        if not self.sim.set_command(msg.to_twist2d(), self.now):
+            self.log.warning(self.sim.last_rejection)
+
+    def _physics(self) -> None:
+        self.sim.step(self.physics_dt)
+        self.pub_clock.publish(Clock(self.now))
+
+    def _scan(self) -> None:
+        scan = self.sim.scan(self.now)
+        if scan is not None:
+            self.scans_published += 1
+            self.pub_scan.publish(scan)
+
+    def _odom(self) -> None:
+        now = self.now
+        odom = self.sim.odom(now - self._last_odom_t, now)
+        self._last_odom_t = now
+        if odom is None:
+            return
+        self.odom_published += 1
+        self.pub_odom.publish(odom)
+        p = odom.pose.pose
+        self._odom_pose = p.to_pose2d()
+        tfs = [TransformStamped(Header(now, odom.header.frame_id), odom.child_frame_id,
+                                Transform(Vector3(p.position.x, p.position.y, 0.0), p.orientation))]
+        if self.perfect_localization:
+            map_to_odom = self.sim.pose.compose(self._odom_pose.inverse())
+            tfs.append(TransformStamped(Header(now, "map"), odom.header.frame_id,
+                                        Transform.from_pose2d(map_to_odom)))
+        self.pub_tf.publish(TFMessage(tuple(tfs)))
+
+    def _imu(self) -> None:
+        now = self.now
+        msg = self.sim.imu_sample(now - self._last_imu_t, now)
+        self._last_imu_t = now
+        if msg is not None:
+            self.pub_imu.publish(msg)
+
+    def _truth(self) -> None:
+        self.pub_truth.publish(self.sim.truth(self.now))

@@ -1,0 +1,137 @@
+"""The simulated robot in its world, without any bus: physics, sensors, collisions.
+
+``Simulator`` is a pure, deterministic object (one ``numpy.random.Generator`` seeded at
+construction, explicit time): :mod:`navstack.sim.node` wraps it in a lifecycle node that
+publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth``.
+
+Contact model: a step whose footprint would overlap an obstacle is not taken — the robot
+stays where it was with zero velocity, as a real base stalls against a wall — and each
+new contact (free -> in contact) counts as one collision.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.core.errors import InvalidMessage
+from navstack.core.msgs import Imu, LaserScan, Odometry, Pose2D, Twist2D
+from navstack.sim.collision import footprint_collides
+from navstack.sim.kinematics import RobotState, make_model
+from navstack.sim.raycast import cast_rays
+from navstack.sim.robot import RobotParams
+from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel
+from navstack.sim.world import World
+
+
+class Simulator:
+    """One robot in one world.  All methods take or use explicit simulated time."""
+
+    def __init__(self, world: World, robot: RobotParams, seed: int = 0,
+                 spawn: Pose2D | None = None) -> None:
+        self.world = world
+        self.robot = robot
+        self.rng = np.random.default_rng(seed)
+        self.model = make_model(robot.kinematics)
+        self.footprint = robot.footprint_model()
+        start = spawn or world.spawn
+        self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
+        self._prev_state = self.state
+        self.command = Twist2D()
+        self.command_time = -math.inf
+        self.cmd_timeout = 0.5
+        self.time = 0.0
+        self.collisions = 0
+        self.in_contact = False
+        self.rejected_commands = 0
+        self.last_rejection = ""
+        sensors = robot.sensors
+        self.lidar = LidarModel(sensors.lidar) if sensors.lidar.enabled else None
+        self.odometry = WheelOdometryModel(sensors.odometry) if sensors.odometry.enabled else None
+        self.imu = ImuModel(sensors.imu) if sensors.imu.enabled else None
+        self.ground_truth = GroundTruthModel()
+        self.distance_travelled = 0.0
+
+    # --- commands ------------------------------------------------------------------
+    def set_command(self, cmd: Twist2D, now: float) -> bool:
+        """Accept a body-frame velocity command; NaN/inf is rejected and counted."""
+        if not cmd.is_finite():
+            self.rejected_commands += 1
+            self.last_rejection = (f"rejected /cmd_vel at t={now:.3f} s: non-finite values "
+                                   f"(vx={cmd.vx}, vy={cmd.vy}, wz={cmd.wz}); keeping last command")
+            return False
+        self.command = cmd
+        self.command_time = now
+        return True
+
+    def teleport(self, pose: Pose2D) -> None:
+        """Move the robot instantly (kidnapping tests); velocities reset to zero."""
+        self.state = RobotState(x=pose.x, y=pose.y, yaw=pose.theta)
+        self._prev_state = self.state
+
+    @property
+    def pose(self) -> Pose2D:
+        return Pose2D(self.state.x, self.state.y, self.state.yaw)
+
+    # --- physics -------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        """Advance physics by ``dt`` seconds under the current command."""
+        cmd = self.command if self.time - self.command_time <= self.cmd_timeout else Twist2D()
+        try:
+            new = self.model.step(self.state, cmd, dt)
+        except InvalidMessage as exc:  # defensive: set_command filters these already
+            self.rejected_commands += 1
+            self.last_rejection = str(exc)
+            new = self.model.step(self.state, Twist2D(), dt)
+        self.time += dt
+        moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
+        if moved and footprint_collides(self.world, self.footprint.at((new.x, new.y, new.yaw)),
+                                        self.time):
+            if not self.in_contact:
+                self.collisions += 1
+            self.in_contact = True
+            new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
+        else:
+            self.in_contact = self.in_contact and not moved
+        self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
+        self._prev_state = self.state
+        self.state = new
+
+    # --- sensors -------------------------------------------------------------------
+    def lidar_pose(self) -> tuple[float, float, float]:
+        """World pose (x, y, yaw) of the lidar from the robot pose and its mount."""
+        assert self.lidar is not None
+        m = self.lidar.mount
+        c, s = math.cos(self.state.yaw), math.sin(self.state.yaw)
+        return (self.state.x + c * m.x - s * m.y, self.state.y + s * m.x + c * m.y,
+                self.state.yaw + m.yaw)
+
+    def true_ranges(self) -> NDArray[np.float64]:
+        assert self.lidar is not None
+        lx, ly, lyaw = self.lidar_pose()
+        circles, segments = self.world.moving_at(self.time)
+        w = self.world
+        return cast_rays(w.occupied, w.origin_x, w.origin_y, w.resolution, lx, ly, lyaw,
+                         self.lidar.beam_angles, self.lidar.params.range_min,
+                         self.lidar.params.range_max, circles, segments)
+
+    def scan(self, now: float) -> LaserScan | None:
+        if self.lidar is None:
+            return None
+        return self.lidar.measure(self.true_ranges(), now, self.rng)
+
+    def odom(self, dt: float, now: float) -> Odometry | None:
+        if self.odometry is None:
+            return None
+        return self.odometry.measure(self.state, dt, now, self.rng)
+
+    def imu_sample(self, dt: float, now: float) -> Imu | None:
+        if self.imu is None:
+            return None
+        return self.imu.measure(self.state, self._prev_state, dt, now, self.rng)
+
+    def truth(self, now: float) -> Odometry:
+        return self.ground_truth.measure(self.state, now)
