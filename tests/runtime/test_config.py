@@ -87,7 +87,8 @@ global_costmap:
     assert ros_parameters(data, "global_costmap")["resolution"] == 0.05
     stack = write(tmp_path, "navigation: nav2_params.yaml\n")
     cfg = load_stack(stack)
-    assert cfg.navigation_params()["controller_server"]["ros__parameters"]["controller_frequency"] == 20.0
+    ctrl_params = cfg.navigation_params()["controller_server"]["ros__parameters"]
+    assert ctrl_params["controller_frequency"] == 20.0
 
 
 def test_nav2_layout_errors(tmp_path: Path) -> None:

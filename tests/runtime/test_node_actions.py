@@ -115,3 +115,17 @@ def test_same_seed_same_run() -> None:
 
     assert run(7) == run(7)
     assert run(7) != run(8)
+
+
+def test_bad_transform_is_counted_and_the_rest_still_land() -> None:
+    from navstack.core.msgs import Header, TFMessage, Transform, TransformStamped, Vector3
+    from navstack.core.msgs.geometry_msgs import Quaternion
+
+    rt = Runtime()
+    good = TransformStamped(Header(1.0, "odom"), "base_link", Transform(Vector3(1.0, 0, 0)))
+    bad = TransformStamped(Header(1.0, "map"), "odom",
+                           Transform(Vector3(float("nan"), 0, 0), Quaternion()))
+    rt.bus.publisher("/tf", TFMessage).publish(TFMessage((bad, good)))
+    rt.scheduler.run_until(1.0)
+    assert rt.tf_rejections == 1 and "odom" in rt.last_tf_rejection
+    assert rt.tf.lookup_pose2d("odom", "base_link").x == 1.0

@@ -106,7 +106,7 @@ def test_delivery_is_not_reentrant() -> None:
 def test_topic_type_is_enforced() -> None:
     bus = Bus(Scheduler())
     bus.publisher("/t", String)
-    with pytest.raises(BusError, match="topic '/t' already carries String; cannot use it for Float64"):
+    with pytest.raises(BusError, match="already carries String; cannot use it for Float64"):
         bus.publisher("/t", Float64)
     pub = bus.publisher("/t", String)
     with pytest.raises(BusError, match="topic '/t' carries String, not Float64"):

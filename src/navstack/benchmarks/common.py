@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+
 @dataclass
 class BenchResult:
     """What a suite measured: named metrics (numbers) plus per-case rows."""

@@ -101,6 +101,11 @@ class ExtrapolationError(TransformError):
     """The requested time lies outside the buffered window of an edge."""
 
 
+class FrameConflictError(NavstackError, ValueError):
+    """A transform would give a frame a second parent, close a loop, or mix static and
+    dynamic publication of one edge."""
+
+
 # --- runtime ---------------------------------------------------------------------------
 class LifecycleError(NavstackError):
     """An illegal lifecycle transition was requested."""

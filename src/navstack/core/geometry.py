@@ -21,8 +21,19 @@ AngleT = TypeVar("AngleT", float, FloatArray)
 def normalize_angle(angle: AngleT) -> AngleT:
     """Wrap an angle (scalar or array) into ``(-pi, pi]``."""
     if isinstance(angle, np.ndarray):
-        return angle - TWO_PI * np.ceil((angle - math.pi) / TWO_PI)
-    return float(angle - TWO_PI * math.ceil((angle - math.pi) / TWO_PI))
+        out = angle - TWO_PI * np.ceil((angle - math.pi) / TWO_PI)
+        # rounding near the ends can land one ulp outside; fold back once
+        out = np.where(out > math.pi, out - TWO_PI, out)
+        return np.where(out <= -math.pi, out + TWO_PI, out)
+    a = float(angle)
+    if -math.pi < a <= math.pi:
+        return a
+    out = a - TWO_PI * math.ceil((a - math.pi) / TWO_PI)
+    if out > math.pi:
+        out -= TWO_PI
+    elif out <= -math.pi:
+        out += TWO_PI
+    return out
 
 
 def angle_diff(a: AngleT, b: AngleT) -> AngleT:
@@ -37,8 +48,9 @@ def yaw_to_quaternion(yaw: float) -> tuple[float, float, float, float]:
 
 
 def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
-    """Yaw (rotation about +z) of a quaternion ``(x, y, z, w)``; roll/pitch ignored."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    """Yaw (rotation about +z) of a quaternion ``(x, y, z, w)`` in ``(-pi, pi]``."""
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return math.pi if yaw == -math.pi else yaw
 
 
 def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
@@ -114,7 +126,7 @@ def se2_interpolate(a: ArrayLike, b: ArrayLike, fraction: float | FloatArray) ->
     """
     a_, b_ = _as_poses(a), _as_poses(b)
     f = np.asarray(fraction, dtype=np.float64)
-    out = np.empty(np.broadcast_shapes(a_.shape, b_.shape, f.shape + (3,)))
+    out = np.empty(np.broadcast_shapes(a_.shape, b_.shape, (*f.shape, 3)))
     out[..., 0] = a_[..., 0] + f * (b_[..., 0] - a_[..., 0])
     out[..., 1] = a_[..., 1] + f * (b_[..., 1] - a_[..., 1])
     dth = normalize_angle(np.asarray(b_[..., 2] - a_[..., 2]))

@@ -7,10 +7,13 @@ the key path and a "did you mean" suggestion, never a pydantic traceback.
 
 from __future__ import annotations
 
+import types
+import typing
 from collections.abc import Mapping
 from typing import Any, Self
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator
+from pydantic_core import PydanticCustomError
 
 from navstack.core.errors import ConfigError, ConfigErrors, did_you_mean
 
@@ -19,6 +22,17 @@ class Params(BaseModel):
     """Frozen, strict-keys pydantic model; subclass with Nav2-named fields."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_lax_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+        """Refuse ``true`` or ``"1.5"`` for a number, as Nav2's typed parameters do
+        (pydantic's lax mode would coerce them silently)."""
+        if isinstance(value, bool | str) and info.field_name is not None:
+            annotation = cls.model_fields[info.field_name].annotation
+            if _is_numeric(annotation) and not _admits(annotation, type(value)):
+                raise PydanticCustomError("number_type", "Input should be a valid number")
+        return value
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any] | None, *, file: str = "",
@@ -32,6 +46,21 @@ class Params(BaseModel):
     def updated(self, **changes: Any) -> Self:
         """A validated copy with ``changes`` applied."""
         return type(self).from_mapping({**self.model_dump(), **changes})
+
+
+def _members(annotation: Any) -> tuple[Any, ...]:
+    origin = typing.get_origin(annotation)
+    if origin is typing.Union or origin is types.UnionType:
+        return typing.get_args(annotation)
+    return (annotation,)
+
+
+def _is_numeric(annotation: Any) -> bool:
+    return any(m in (int, float) for m in _members(annotation))
+
+
+def _admits(annotation: Any, kind: type) -> bool:
+    return any(m is kind for m in _members(annotation))
 
 
 def _join(prefix: str, loc: tuple[int | str, ...]) -> str:

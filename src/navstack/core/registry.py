@@ -24,6 +24,7 @@ class PluginRegistry(Generic[T]):
 
     def register(self, name: str, entry: T, aliases: Iterable[str] = ()) -> T:
         """Register ``entry`` under ``name`` and its ``aliases`` (e.g. Nav2 plugin strings)."""
+        aliases = tuple(aliases)
         for key in (name, *aliases):
             if key in self._entries or key in self._aliases:
                 raise DuplicatePluginError(

@@ -35,8 +35,8 @@ from navstack.core.errors import (
     ConfigError,
     ConnectivityError,
     ExtrapolationError,
+    FrameConflictError,
     InvalidMessage,
-    NavstackError,
     UnknownFrameError,
     did_you_mean,
 )
@@ -61,11 +61,6 @@ Tf = tuple[float, float, float, float, float, float, float]
 """A rigid transform ``(x, y, z, qx, qy, qz, qw)``."""
 
 IDENTITY: Tf = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-
-
-class FrameConflictError(NavstackError, ValueError):
-    """An inserted transform contradicts the tree: a second parent, a cycle, or a frame
-    published both as static and dynamic."""
 
 
 # --- rigid transform algebra on 7-tuples (pure floats: fastest for short chains) ------
@@ -272,8 +267,21 @@ class TransformTree:
         self.set_transform(ts, is_static=True)
 
     def apply_tf_message(self, msg: TFMessage, is_static: bool, authority: str = "") -> int:
-        """Ingest a ``/tf`` (``is_static=False``) or ``/tf_static`` message; count stored."""
-        return sum(self.set_transform(ts, is_static, authority) for ts in msg.transforms)
+        """Ingest a ``/tf`` (``is_static=False``) or ``/tf_static`` message; count stored.
+
+        One bad transform does not drop the good ones of the same message: all valid
+        transforms are stored first, then the first rejection is re-raised.
+        """
+        stored = 0
+        first_error: InvalidMessage | FrameConflictError | None = None
+        for ts in msg.transforms:
+            try:
+                stored += self.set_transform(ts, is_static, authority)
+            except (InvalidMessage, FrameConflictError) as exc:
+                first_error = first_error or exc
+        if first_error is not None:
+            raise first_error
+        return stored
 
     def clear(self) -> None:
         """Drop every dynamic edge and its samples, keep static edges (tf2

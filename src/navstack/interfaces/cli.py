@@ -66,8 +66,10 @@ def robots() -> None:
 
 @app.command()
 def sim(
-    world: Annotated[str, typer.Option(help="Built-in world name or a world/map YAML path.")] = "office",
-    robot: Annotated[str, typer.Option(help="Built-in robot profile or a robot YAML path.")] = "diff_drive",
+    world: Annotated[str, typer.Option(
+        help="Built-in world name or a world/map YAML path.")] = "office",
+    robot: Annotated[str, typer.Option(
+        help="Built-in robot profile or a robot YAML path.")] = "diff_drive",
     duration: Annotated[float, typer.Option(help="Simulated seconds to run.")] = 10.0,
     cmd: Annotated[str, typer.Option(help="Constant command 'vx,wz' [m/s, rad/s].")] = "0.3,0.0",
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 0,

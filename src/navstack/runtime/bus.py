@@ -39,6 +39,7 @@ def keep_last(depth: int) -> QoS:
     return QoS(depth=depth)
 
 
+DEFAULT_QOS = QoS()
 LATCHED = QoS(depth=1, latched=True)
 SENSOR_DATA = QoS(depth=5)
 
@@ -155,11 +156,11 @@ class Bus:
                            f"cannot use it for {msg_type.__name__}")
         return topic
 
-    def publisher(self, name: str, msg_type: type[M], qos: QoS = QoS()) -> Publisher[M]:
+    def publisher(self, name: str, msg_type: type[M], qos: QoS = DEFAULT_QOS) -> Publisher[M]:
         return Publisher(self, self._topic(name, msg_type), qos)
 
     def subscribe(self, name: str, msg_type: type[M], callback: Callable[[M], Any],
-                  qos: QoS = QoS()) -> Subscription[M]:
+                  qos: QoS = DEFAULT_QOS) -> Subscription[M]:
         topic = self._topic(name, msg_type)
         sub = Subscription(self, topic, callback, qos)
         topic.subscriptions.append(sub)

@@ -15,13 +15,14 @@ from collections.abc import Callable
 from enum import Enum
 from typing import Any, TypeVar
 
-from navstack.core.errors import LifecycleError
+from navstack.core.errors import ConfigError, FrameConflictError, InvalidMessage, LifecycleError
 from navstack.core.msgs import TFMessage
 from navstack.core.tf import TransformTree
-from navstack.runtime.bus import LATCHED, Bus, Publisher, QoS, Subscription
+from navstack.runtime.bus import DEFAULT_QOS, LATCHED, Bus, Publisher, QoS, Subscription
 from navstack.runtime.scheduler import Scheduler, Timer
 
 M = TypeVar("M")
+_log = logging.getLogger("navstack.runtime")
 
 
 class LifecycleState(Enum):
@@ -42,10 +43,20 @@ class Runtime:
         self.bus = Bus(self.scheduler)
         self.tf = TransformTree(cache_time=tf_cache_time)
         self.nodes: dict[str, Node] = {}
-        self.bus.subscribe("/tf", TFMessage, lambda m: self.tf.apply_tf_message(m, False),
-                           QoS(depth=100))
-        self.bus.subscribe("/tf_static", TFMessage, lambda m: self.tf.apply_tf_message(m, True),
+        self.tf_rejections = 0
+        self.last_tf_rejection = ""
+        self.bus.subscribe("/tf", TFMessage, lambda m: self._ingest_tf(m, False), QoS(depth=100))
+        self.bus.subscribe("/tf_static", TFMessage, lambda m: self._ingest_tf(m, True),
                            QoS(depth=100, latched=True))
+
+    def _ingest_tf(self, msg: TFMessage, is_static: bool) -> None:
+        """Feed the TF buffer; a bad transform is counted and logged, the rest still land."""
+        try:
+            self.tf.apply_tf_message(msg, is_static)
+        except (InvalidMessage, FrameConflictError, ConfigError) as exc:
+            self.tf_rejections += 1
+            self.last_tf_rejection = str(exc)
+            _log.warning("rejected transform on %s: %s", "/tf_static" if is_static else "/tf", exc)
 
     @property
     def now(self) -> float:
@@ -97,14 +108,15 @@ class Node:
     def now(self) -> float:
         return self.runtime.scheduler.now
 
-    def create_publisher(self, topic: str, msg_type: type[M], qos: QoS = QoS()) -> Publisher[M]:
+    def create_publisher(self, topic: str, msg_type: type[M],
+                         qos: QoS = DEFAULT_QOS) -> Publisher[M]:
         return self.bus.publisher(topic, msg_type, qos)
 
     def create_latched_publisher(self, topic: str, msg_type: type[M]) -> Publisher[M]:
         return self.bus.publisher(topic, msg_type, LATCHED)
 
     def create_subscription(self, topic: str, msg_type: type[M], callback: Callable[[M], Any],
-                            qos: QoS = QoS()) -> Subscription[M]:
+                            qos: QoS = DEFAULT_QOS) -> Subscription[M]:
         def gated(msg: M) -> None:
             if self.state is LifecycleState.ACTIVE:
                 callback(msg)

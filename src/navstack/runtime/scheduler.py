@@ -50,7 +50,8 @@ class Timer:
     def __init__(self, scheduler: Scheduler, period: float, callback: Callable[[], Any],
                  start: float) -> None:
         if not period > 0.0 or not math.isfinite(period):
-            raise ValueError(f"timer period must be a positive finite number of seconds, got {period}")
+            raise ValueError(
+                f"timer period must be a positive finite number of seconds, got {period}")
         self.period = period
         self.callback = callback
         self._scheduler = scheduler

@@ -50,7 +50,8 @@ class LaserScan:
 
     def angles(self) -> NDArray[np.float64]:
         """Beam angles [rad], one per range."""
-        return self.angle_min + self.angle_increment * np.arange(len(self.ranges))
+        return self.angle_min + self.angle_increment * np.arange(len(self.ranges),
+                                                                 dtype=np.float64)
 
     def points(self) -> NDArray[np.float64]:
         """``(M, 2)`` end points of the valid returns in the scan frame."""
@@ -143,7 +144,7 @@ class OccupancyGrid:
         dx, dy = x - o.x, y - o.y
         c, s = math.cos(-o.theta), math.sin(-o.theta)
         lx, ly = c * dx - s * dy, s * dx + c * dy
-        return int(math.floor(ly / self.info.resolution)), int(math.floor(lx / self.info.resolution))
+        return math.floor(ly / self.info.resolution), math.floor(lx / self.info.resolution)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
