@@ -125,8 +125,9 @@ def _read_pillow(path: Path) -> MapImage:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as img:
-            img.load()
+        with Image.open(path) as opened:
+            opened.load()
+            img: Image.Image = opened
             mode = img.mode
             if mode in ("P", "PA"):
                 img = img.convert("RGBA" if "transparency" in img.info or mode == "PA" else "RGB")

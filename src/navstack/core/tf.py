@@ -293,20 +293,25 @@ class TransformTree:
 
     def _validated(self, ts: TransformStamped, is_static: bool) -> Tf:
         parent, child = ts.header.frame_id, ts.child_frame_id
-        what = f"transform {parent or '?'}->{child or '?'} at t={ts.header.stamp:.3f} s"
+
+        def what() -> str:  # built only when reporting: this runs for every sample
+            return f"transform {parent or '?'}->{child or '?'} at t={ts.header.stamp:.3f} s"
+
         if not parent or not child:
-            raise InvalidMessage(f"{what} has an empty frame id; set header.frame_id "
+            raise InvalidMessage(f"{what()} has an empty frame id; set header.frame_id "
                                  f"(parent) and child_frame_id")
         if parent == child:
-            raise FrameConflictError(f"{what} maps frame '{child}' onto itself; "
+            raise FrameConflictError(f"{what()} maps frame '{child}' onto itself; "
                                      f"parent and child must differ")
         v = tf_from_msg(ts.transform)
-        if not all(math.isfinite(c) for c in v) or not (is_static
-                                                         or math.isfinite(ts.header.stamp)):
-            raise InvalidMessage(f"{what} contains NaN or inf; fix its publisher")
+        isfinite = math.isfinite
+        if not (isfinite(v[0]) and isfinite(v[1]) and isfinite(v[2]) and isfinite(v[3])
+                and isfinite(v[4]) and isfinite(v[5]) and isfinite(v[6])) or not (
+                is_static or isfinite(ts.header.stamp)):
+            raise InvalidMessage(f"{what()} contains NaN or inf; fix its publisher")
         n2 = v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]
         if abs(n2 - 1.0) > QUATERNION_NORMALIZATION_TOLERANCE:
-            raise InvalidMessage(f"{what} has a non-unit rotation quaternion "
+            raise InvalidMessage(f"{what()} has a non-unit rotation quaternion "
                                  f"(|q|^2 = {n2:.4f}); normalise it (tf2 tolerance "
                                  f"{QUATERNION_NORMALIZATION_TOLERANCE})")
         k = 1.0 / math.sqrt(n2)

@@ -49,7 +49,7 @@ def worlds() -> None:
 
     for name in list_worlds():
         w = load_world(name)
-        (x0, y0), (x1, y1) = w.bounds
+        x0, y0, x1, y1 = w.bounds
         typer.echo(f"{name:12s} {x1 - x0:6.1f} x {y1 - y0:5.1f} m  "
                    f"waypoints: {', '.join(w.waypoints) or '-'}")
 

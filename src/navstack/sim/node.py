@@ -1,5 +1,10 @@
 """``SimulatorNode``: the simulator on the bus.
 
+Physics is event-driven: whenever something observes or commands the robot (a sensor
+sample, a ``/cmd_vel`` message) the simulation first advances to ``now`` in steps of at
+most ``1 / physics_rate_hz``.  The trajectory is the same as with a fixed-rate physics
+timer (exact arc integration, collision checks every step) at a fraction of the events.
+
 Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
 (nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link, and map -> odom when
 ``perfect_localization`` is on so navigation can run before localization exists),
@@ -37,7 +42,6 @@ class SimulatorNode(Node):
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
-        self._last_odom_t = 0.0
         self._last_imu_t = 0.0
         self._odom_pose = Pose2D()
         self.scans_published = 0
@@ -54,7 +58,6 @@ class SimulatorNode(Node):
         self.pub_truth = self.create_publisher("/ground_truth", Odometry, QoS(depth=10))
         self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
         sensors = self.sim.robot.sensors
-        self.create_timer(self.physics_dt, self._physics)
         if self.sim.lidar is not None:
             self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
         if self.sim.odometry is not None:
@@ -72,7 +75,7 @@ class SimulatorNode(Node):
         if self.sim.imu is not None:
             static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
         self.pub_tf_static.publish(TFMessage(tuple(static)))
-        self._last_odom_t = self._last_imu_t = self.now
+        self._last_imu_t = self.now
         self._odom()
 
     def _static_tf(self, frame: str, mount: object) -> TransformStamped:
@@ -82,24 +85,31 @@ class SimulatorNode(Node):
             Transform(Vector3(m.x, m.y, m.z), Quaternion.from_yaw(m.yaw)))  # type: ignore[attr-defined]
 
     # --- callbacks -------------------------------------------------------------------
+    def advance(self) -> None:
+        """Step physics up to the current time (sub-steps of at most ``physics_dt``)."""
+        sim, now, dt = self.sim, self.now, self.physics_dt
+        if sim.time >= now - 1e-9:
+            return
+        while sim.time < now - 1e-9:
+            sim.step(min(dt, now - sim.time))
+        self.pub_clock.publish(Clock(now))
+
     def _on_cmd(self, msg: Twist) -> None:
+        self.advance()
         if not self.sim.set_command(msg.to_twist2d(), self.now):
             self.log.warning(self.sim.last_rejection)
 
-    def _physics(self) -> None:
-        self.sim.step(self.physics_dt)
-        self.pub_clock.publish(Clock(self.now))
-
     def _scan(self) -> None:
+        self.advance()
         scan = self.sim.scan(self.now)
         if scan is not None:
             self.scans_published += 1
             self.pub_scan.publish(scan)
 
     def _odom(self) -> None:
+        self.advance()
         now = self.now
-        odom = self.sim.odom(now - self._last_odom_t, now)
-        self._last_odom_t = now
+        odom = self.sim.odom(now)
         if odom is None:
             return
         self.odom_published += 1
@@ -115,6 +125,7 @@ class SimulatorNode(Node):
         self.pub_tf.publish(TFMessage(tuple(tfs)))
 
     def _imu(self) -> None:
+        self.advance()
         now = self.now
         msg = self.sim.imu_sample(now - self._last_imu_t, now)
         self._last_imu_t = now
@@ -122,4 +133,5 @@ class SimulatorNode(Node):
             self.pub_imu.publish(msg)
 
     def _truth(self) -> None:
+        self.advance()
         self.pub_truth.publish(self.sim.truth(self.now))

@@ -32,6 +32,7 @@ def run_open_loop(world: str, robot: str, duration: float, vx: float, wz: float,
     rt.bring_up()
     t0 = time.perf_counter()
     rt.scheduler.run_until(duration)
+    node.advance()
     wall = time.perf_counter() - t0
     sim = node.sim
     p = sim.pose

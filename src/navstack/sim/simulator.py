@@ -37,9 +37,10 @@ class Simulator:
         self.rng = np.random.default_rng(seed)
         self.model = make_model(robot.kinematics)
         self.footprint = robot.footprint_model()
+        self._fp_local = np.ascontiguousarray(self.footprint.polygon, dtype=np.float64)
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
-        self._prev_state = self.state
+        self._imu_prev_state: RobotState | None = None
         self.command = Twist2D()
         self.command_time = -math.inf
         self.cmd_timeout = 0.5
@@ -50,9 +51,10 @@ class Simulator:
         self.last_rejection = ""
         sensors = robot.sensors
         self.lidar = LidarModel(sensors.lidar) if sensors.lidar.enabled else None
-        self.odometry = WheelOdometryModel(sensors.odometry) if sensors.odometry.enabled else None
+        self.odometry = (WheelOdometryModel(sensors.odometry, holonomic=self.model.holonomic)
+                         if sensors.odometry.enabled else None)
         self.imu = ImuModel(sensors.imu) if sensors.imu.enabled else None
-        self.ground_truth = GroundTruthModel()
+        self.ground_truth = GroundTruthModel(sensors.ground_truth)
         self.distance_travelled = 0.0
 
     # --- commands ------------------------------------------------------------------
@@ -70,7 +72,7 @@ class Simulator:
     def teleport(self, pose: Pose2D) -> None:
         """Move the robot instantly (kidnapping tests); velocities reset to zero."""
         self.state = RobotState(x=pose.x, y=pose.y, yaw=pose.theta)
-        self._prev_state = self.state
+        self._imu_prev_state = None
 
     @property
     def pose(self) -> Pose2D:
@@ -88,8 +90,7 @@ class Simulator:
             new = self.model.step(self.state, Twist2D(), dt)
         self.time += dt
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
-        if moved and footprint_collides(self.world, self.footprint.at((new.x, new.y, new.yaw)),
-                                        self.time):
+        if moved and footprint_collides(self.world, self._footprint_at(new), self.time):
             if not self.in_contact:
                 self.collisions += 1
             self.in_contact = True
@@ -97,8 +98,14 @@ class Simulator:
         else:
             self.in_contact = self.in_contact and not moved
         self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
-        self._prev_state = self.state
         self.state = new
+        if self.odometry is not None:  # wheel encoders count every step
+            self.odometry.integrate(new, dt, self.rng)
+
+    def _footprint_at(self, state: RobotState) -> NDArray[np.float64]:
+        """Footprint polygon in the world at ``state`` (plain numpy: runs every step)."""
+        c, s = math.cos(state.yaw), math.sin(state.yaw)
+        return self._fp_local @ np.array([[c, s], [-s, c]]) + (state.x, state.y)
 
     # --- sensors -------------------------------------------------------------------
     def lidar_pose(self) -> tuple[float, float, float]:
@@ -123,15 +130,19 @@ class Simulator:
             return None
         return self.lidar.measure(self.true_ranges(), now, self.rng)
 
-    def odom(self, dt: float, now: float) -> Odometry | None:
+    def odom(self, now: float) -> Odometry | None:
+        """The wheel-odometry message for the encoder counts integrated so far."""
         if self.odometry is None:
             return None
-        return self.odometry.measure(self.state, dt, now, self.rng)
+        return self.odometry.message(now)
 
     def imu_sample(self, dt: float, now: float) -> Imu | None:
+        """An IMU sample; acceleration from the state ``dt`` ago (the previous sample)."""
         if self.imu is None:
             return None
-        return self.imu.measure(self.state, self._prev_state, dt, now, self.rng)
+        msg = self.imu.measure(self.state, self._imu_prev_state, dt, now, self.rng)
+        self._imu_prev_state = self.state
+        return msg
 
     def truth(self, now: float) -> Odometry:
         return self.ground_truth.measure(self.state, now)

@@ -16,8 +16,6 @@ from navstack.core.geometry import (
     normalize_angle,
     quaternion_to_yaw,
     se2_apply,
-    se2_compose,
-    se2_inverse,
     yaw_to_quaternion,
 )
 from navstack.core.msgs.std import Header
@@ -73,14 +71,22 @@ class Pose2D:
         return Pose2D(float(a[0]), float(a[1]), normalize_angle(float(a[2])))
 
     def compose(self, other: Pose2D) -> Pose2D:
-        """``self ⊕ other``: ``other`` given in this pose's frame, in the parent frame."""
-        return Pose2D.from_array(se2_compose(self.as_array(), other.as_array()))
+        """``self ⊕ other``: ``other`` given in this pose's frame, in the parent frame.
+
+        Scalar float math: this sits on per-message paths where numpy's per-call
+        overhead would dominate (``se2_compose`` is the vectorised form).
+        """
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2D(self.x + c * other.x - s * other.y, self.y + s * other.x + c * other.y,
+                      normalize_angle(self.theta + other.theta))
 
     def __matmul__(self, other: Pose2D) -> Pose2D:
         return self.compose(other)
 
     def inverse(self) -> Pose2D:
-        return Pose2D.from_array(se2_inverse(self.as_array()))
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2D(-(c * self.x + s * self.y), s * self.x - c * self.y,
+                      normalize_angle(-self.theta))
 
     def transform_points(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Map ``(N, 2)`` points from this pose's frame into its parent frame."""

@@ -1,0 +1,282 @@
+"""Robot profiles: drive kinematics, footprint and sensor suite of a (simulated) robot.
+
+A profile is a YAML file (built-ins live in ``navstack/sim/robots/``)::
+
+    name: turtlebot
+    kinematics: {type: diff_drive, max_vel_x: 0.26, max_vel_theta: 1.82, ...}
+    robot_radius: 0.22            # or footprint: "[[x, y], ...]" (Nav2 costmap_2d names)
+    footprint_padding: 0.01
+    sensors:
+      lidar: {frame_id: base_scan, mount: {x: -0.064, z: 0.122}, rate_hz: 10, ...}
+      odometry: {rate_hz: 30, linear_velocity_noise_std: 0.01, ...}
+      imu: {enabled: false}
+      ground_truth: {rate_hz: 50}
+
+Every key is validated on load: unknown keys, wrong types and out-of-range values raise
+:class:`~navstack.core.errors.ConfigError` naming the file and the key path
+(``robot.kinematics.max_vel_xx: unknown key (did you mean 'max_vel_x'?)``).
+
+Sensor noise parameters default to an *ideal* sensor (no noise, no dropout); the
+built-in profiles set realistic values explicitly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import ConfigDict, Field, ValidationInfo, field_validator
+
+from navstack.core.errors import ConfigError, UnknownNameError
+from navstack.core.msgs import Pose2D
+from navstack.core.params import Params
+from navstack.core.polygon import Footprint, parse_footprint
+from navstack.sim.kinematics import KinematicModel, KinematicsParams, make_model
+from navstack.sim.robots import ROBOTS_DIR
+
+_FINITE = ConfigDict(allow_inf_nan=False)
+Vec3 = tuple[float, float, float]
+
+
+class MountParams(Params):
+    """Pose of a sensor frame in ``base_link`` (the URDF joint origin): x, y, z [m], yaw [rad]."""
+
+    model_config = _FINITE
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    yaw: float = 0.0
+
+    @property
+    def pose2d(self) -> Pose2D:
+        return Pose2D(self.x, self.y, self.yaw)
+
+
+class LidarParams(Params):
+    """A planar scanning lidar (sensor_msgs/LaserScan semantics).
+
+    ``beams`` rays from ``angle_min`` to ``angle_max`` (sensor frame, CCW).  For a full
+    circle (span 2*pi) the last ray stops one increment short of ``angle_max`` so no
+    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range,
+    ``dropout_prob`` loses single beams (reported as +inf, no return) and
+    ``scan_dropout_prob`` whole scans (nothing published).
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = True
+    topic: str = "scan"
+    frame_id: str = "base_scan"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=10.0, gt=0.0)
+    angle_min: float = Field(default=-math.pi, ge=-2.0 * math.pi, le=2.0 * math.pi)
+    angle_max: float = Field(default=math.pi, ge=-2.0 * math.pi, le=2.0 * math.pi)
+    beams: int = Field(default=360, ge=2)
+    range_min: float = Field(default=0.12, ge=0.0)
+    range_max: float = Field(default=12.0, gt=0.0)
+    noise_std: float = Field(default=0.0, ge=0.0)
+    bias: float = 0.0
+    dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+    scan_dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+
+    @field_validator("angle_max")
+    @classmethod
+    def _span(cls, value: float, info: ValidationInfo) -> float:
+        lo = info.data.get("angle_min")
+        if lo is not None and not 0.0 < value - lo <= 2.0 * math.pi + 1e-9:
+            raise ValueError(f"angle_max - angle_min must be in (0, 2*pi], angle_min is {lo}")
+        return value
+
+    @field_validator("range_max")
+    @classmethod
+    def _ranges(cls, value: float, info: ValidationInfo) -> float:
+        lo = info.data.get("range_min")
+        if lo is not None and value <= lo:
+            raise ValueError(f"range_max must be > range_min ({lo})")
+        return value
+
+
+class OdometryParams(Params):
+    """Wheel odometry (nav_msgs/Odometry in ``frame_id`` -> ``child_frame_id``).
+
+    Noise std values are for the velocity averaged over one period ``1 / rate_hz``
+    (what an encoder-differencing driver reports).  ``*_scale_error`` is the systematic
+    calibration error (measured = (1 + e) * true; e.g. a wrong wheel radius or
+    separation); ``slip_prob`` is the chance per period that the wheels slip and the
+    motion of that period goes uncounted.  ``enable_odom_tf`` is ros2_control
+    diff_drive_controller's name for publishing ``odom -> base_link``.
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = True
+    topic: str = "odom"
+    frame_id: str = "odom"
+    child_frame_id: str = "base_link"
+    rate_hz: float = Field(default=50.0, gt=0.0)
+    enable_odom_tf: bool = True
+    linear_velocity_noise_std: float = Field(default=0.0, ge=0.0)
+    angular_velocity_noise_std: float = Field(default=0.0, ge=0.0)
+    linear_scale_error: float = Field(default=0.0, gt=-1.0, lt=1.0)
+    angular_scale_error: float = Field(default=0.0, gt=-1.0, lt=1.0)
+    slip_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+
+
+class ImuParams(Params):
+    """A 6-axis IMU with orientation output (sensor_msgs/Imu).
+
+    ``gyro_bias`` [rad/s] and ``accel_bias`` [m/s^2] are constant (x, y, z) offsets in
+    the IMU frame; noise std values are per sample.
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = True
+    topic: str = "imu"
+    frame_id: str = "imu_link"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=100.0, gt=0.0)
+    orientation_noise_std: float = Field(default=0.0, ge=0.0)
+    gyro_noise_std: float = Field(default=0.0, ge=0.0)
+    gyro_bias: Vec3 = (0.0, 0.0, 0.0)
+    accel_noise_std: float = Field(default=0.0, ge=0.0)
+    accel_bias: Vec3 = (0.0, 0.0, 0.0)
+    dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+
+
+class GroundTruthParams(Params):
+    """Exact pose and twist of ``base_link`` in the world frame (for evaluation)."""
+
+    model_config = _FINITE
+
+    enabled: bool = True
+    topic: str = "ground_truth"
+    frame_id: str = "map"
+    child_frame_id: str = "base_link"
+    rate_hz: float = Field(default=50.0, gt=0.0)
+
+
+class SensorsParams(Params):
+    """The robot's sensor suite; each sensor can be switched off with ``enabled: false``."""
+
+    lidar: LidarParams = Field(default_factory=LidarParams)
+    odometry: OdometryParams = Field(default_factory=OdometryParams)
+    imu: ImuParams = Field(default_factory=ImuParams)
+    ground_truth: GroundTruthParams = Field(default_factory=GroundTruthParams)
+
+
+Polygon2 = tuple[tuple[float, float], ...]
+
+
+class RobotParams(Params):
+    """A robot profile.  Footprint names and defaults follow Nav2 costmap_2d
+    (``footprint`` "[]" -> use ``robot_radius`` 0.1; ``footprint_padding`` 0.01).
+    """
+
+    model_config = _FINITE
+
+    name: str = ""
+    description: str = ""
+    base_frame_id: str = "base_link"
+    kinematics: KinematicsParams = Field(default_factory=KinematicsParams)
+    footprint: Polygon2 | None = None
+    robot_radius: float = Field(default=0.1, gt=0.0)
+    footprint_padding: float = Field(default=0.01, ge=0.0)
+    sensors: SensorsParams = Field(default_factory=SensorsParams)
+
+    @field_validator("footprint", mode="before")
+    @classmethod
+    def _parse_footprint(cls, value: Any) -> Any:
+        if value is None or (isinstance(value, str) and value.strip() in ("", "[]")):
+            return None
+        if isinstance(value, str):
+            pts = parse_footprint(value)
+        else:
+            if isinstance(value, list | tuple) and len(value) == 0:
+                return None
+            pts = np.asarray(value, dtype=np.float64)
+            if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+                raise ValueError(f"footprint needs at least 3 [x, y] points, got {value!r}")
+        return tuple((float(x), float(y)) for x, y in pts)
+
+    def footprint_model(self) -> Footprint:
+        """The padded footprint: the polygon if given, else a circle of ``robot_radius``."""
+        if self.footprint is not None:
+            return Footprint.from_polygon(np.asarray(self.footprint, dtype=np.float64),
+                                          self.footprint_padding)
+        return Footprint.from_radius(self.robot_radius, self.footprint_padding)
+
+    def kinematic_model(self) -> KinematicModel:
+        """The drive model built from ``kinematics``."""
+        return make_model(self.kinematics)
+
+
+# --- loading ------------------------------------------------------------------------------
+def list_robots() -> list[str]:
+    """Names of the built-in robot profiles."""
+    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))
+
+
+def _deep_merge(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _deep_merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _resolve(name_or_path: str | Path) -> Path:
+    text = str(name_or_path)
+    is_path = (isinstance(name_or_path, Path) or "/" in text or "\\" in text
+               or text.endswith((".yaml", ".yml")))
+    if is_path:
+        path = Path(name_or_path)
+        if not path.is_file():
+            raise ConfigError("robot profile file not found; pass a built-in name "
+                              f"({', '.join(list_robots())}) or an existing YAML file",
+                              file=str(path))
+        return path
+    known = list_robots()
+    if text not in known:
+        raise UnknownNameError("robot", text, known)
+    return ROBOTS_DIR / f"{text}.yaml"
+
+
+def robot_from_mapping(data: Mapping[str, Any], *, file: str = "",
+                       key_path: str = "robot") -> RobotParams:
+    """Validate an inline robot profile (e.g. the ``robot:`` section of a stack YAML)."""
+    return RobotParams.from_mapping(data, file=file, key_path=key_path)
+
+
+def load_robot(name_or_path: str | Path,
+               overrides: Mapping[str, Any] | None = None) -> RobotParams:
+    """Load a built-in profile by name (see :func:`list_robots`) or a YAML file by path.
+
+    ``overrides`` is deep-merged into the file's mapping before validation (e.g.
+    ``{"sensors": {"lidar": {"noise_std": 0.0}}}``).  A profile without ``name`` is
+    named after its file.  Raises ``UnknownNameError`` for an unknown built-in name
+    and ``ConfigError`` for a missing/unreadable file or invalid keys.
+    """
+    path = _resolve(name_or_path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read robot profile: {exc}", file=str(path)) from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"invalid YAML: {exc}", file=str(path)) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"a robot profile must be a mapping of keys, got "
+                          f"{type(data).__name__}", file=str(path), key_path="robot")
+    if overrides:
+        data = _deep_merge(data, overrides)
+    data = {"name": path.stem, **data}
+    return robot_from_mapping(data, file=str(path))
