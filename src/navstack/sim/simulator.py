@@ -5,8 +5,10 @@ construction, explicit time): :mod:`navstack.sim.node` wraps it in a lifecycle n
 publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth``.
 
 Contact model: a step whose footprint would overlap an obstacle is not taken — the robot
-stays where it was with zero velocity, as a real base stalls against a wall — and each
-new contact (free -> in contact) counts as one collision.
+stays where it was with zero velocity, as a real base stalls against a wall.  A blocked
+step counts as a new collision only when the previous blocked step is more than
+``contact_release_s`` (0.5 s) ago, so a robot creeping against a wall (alternating tiny
+free and blocked steps) is one collision, not one per step.
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ class Simulator:
         self.time = 0.0
         self.collisions = 0
         self.in_contact = False
+        self.contact_release_s = 0.5
+        self._last_contact_t = -math.inf
         self.rejected_commands = 0
         self.last_rejection = ""
         sensors = robot.sensors
@@ -91,12 +95,11 @@ class Simulator:
         self.time += dt
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
         if moved and footprint_collides(self.world, self._footprint_at(new), self.time):
-            if not self.in_contact:
+            if self.time - self._last_contact_t > self.contact_release_s:
                 self.collisions += 1
-            self.in_contact = True
+            self._last_contact_t = self.time
             new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
-        else:
-            self.in_contact = self.in_contact and not moved
+        self.in_contact = self.time - self._last_contact_t <= self.contact_release_s
         self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step

@@ -1,0 +1,68 @@
+"""CLI: open-loop sim report, and one-line errors (exit code 2, no traceback)."""
+
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from navstack.interfaces.cli import app
+
+runner = CliRunner()
+
+
+def test_sim_reports_pose_collisions_and_rtf(tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    res = runner.invoke(app, ["sim", "--world", "office", "--duration", "4", "--cmd", "0.2,0",
+                              "--seed", "2", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    rep = json.loads(out.read_text())
+    assert rep["collisions"] == 0
+    assert abs(rep["final_pose"]["x"] - (1.0 + 0.2 * 4)) < 0.1  # spawn x=1.0, v=0.2 m/s
+    assert rep["real_time_factor"] > 1.0
+    assert rep["scans"] == 40
+
+
+def test_unknown_world_is_one_line() -> None:
+    res = runner.invoke(app, ["sim", "--world", "ofice"])
+    assert res.exit_code == 2
+    assert "Traceback" not in res.output
+    assert "error: unknown world 'ofice' (did you mean 'office'?)" in res.output
+
+
+def test_unknown_robot_is_one_line() -> None:
+    res = runner.invoke(app, ["sim", "--robot", "turtlebott"])
+    assert res.exit_code == 2
+    assert "error: unknown robot 'turtlebott' (did you mean 'turtlebot'?)" in res.output
+
+
+def test_missing_map_file(tmp_path: Path) -> None:
+    yaml = tmp_path / "m.yaml"
+    yaml.write_text("image: nothere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                    "occupied_thresh: 0.65\nfree_thresh: 0.25\nnegate: 0\n")
+    res = runner.invoke(app, ["sim", "--world", str(yaml)])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "nothere.pgm" in lines[0]
+
+
+def test_corrupt_map_image(tmp_path: Path) -> None:
+    (tmp_path / "bad.pgm").write_bytes(b"P5\n10 10\n255\n\x00\x01")  # truncated pixels
+    yaml = tmp_path / "m.yaml"
+    yaml.write_text("image: bad.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                    "occupied_thresh: 0.65\nfree_thresh: 0.25\nnegate: 0\n")
+    res = runner.invoke(app, ["sim", "--world", str(yaml)])
+    assert res.exit_code == 2
+    assert "Traceback" not in res.output and "bad.pgm" in res.output
+
+
+def test_bad_cmd_value() -> None:
+    res = runner.invoke(app, ["sim", "--cmd", "fast"])
+    assert res.exit_code == 2
+    assert "error: --cmd 'fast' must be two numbers 'vx,wz' (e.g. 0.3,0.2)" in res.output
+
+
+def test_every_subcommand_has_help() -> None:
+    for cmd in (["--help"], ["sim", "--help"], ["worlds", "--help"], ["bench", "--help"],
+                ["robots", "--help"]):
+        res = runner.invoke(app, cmd)
+        assert res.exit_code == 0 and "Usage" in res.output
