@@ -8,8 +8,9 @@ from navstack.core.msgs import LaserScan, Odometry, Twist
 from navstack.sim.open_loop import build_sim, run_open_loop
 
 
-def _drive(seed: int, duration: float = 5.0) -> tuple[list[tuple[float, float, float]], list[float]]:
-    rt, node = build_sim("office", "diff_drive", seed)
+def _drive(seed: int, duration: float = 5.0) -> tuple[list[tuple[float, float, float]],
+                                                      list[float]]:
+    rt, _ = build_sim("office", "diff_drive", seed)
     odom: list[tuple[float, float, float]] = []
     scans: list[float] = []
     rt.bus.subscribe("/odom", Odometry, lambda m: odom.append(
