@@ -93,6 +93,26 @@ def sim(
 
 
 @app.command()
+def demo(
+    out: Annotated[Path, typer.Option(help="Folder for the report.")] = Path("runs/demo"),
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 1,
+) -> None:
+    """Run the flagship demo in the simulator and write a report to --out."""
+    from navstack.sim.open_loop import run_open_loop
+
+    try:
+        report = run_open_loop("office", "diff_drive", 30.0, 0.25, 0.0, seed)
+    except NavstackError as exc:
+        raise _fail(str(exc)) from None
+    p = report["final_pose"]
+    typer.echo(f"office corridor drive: {report['duration_s']:.0f} s simulated, final pose "
+               f"({p['x']:.2f}, {p['y']:.2f}), collisions {report['collisions']}, "
+               f"real-time factor {report['real_time_factor']:.0f}")
+    _write_json(out / "report.json", report)
+    typer.echo(f"report: {out / 'report.json'}")
+
+
+@app.command()
 def bench(
     suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
     quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,

@@ -1,0 +1,154 @@
+"""``CostmapNode``: a LayeredCostmap on the bus (Nav2 ``Costmap2DROS``).
+
+Subscribes the static map (``map_topic``, latched) and every observation source's topic
+(LaserScan), looks up the sensor pose in the costmap's ``global_frame`` at the scan's
+stamp through TF, updates the layers at ``update_frequency`` around the robot pose
+(``global_frame`` <- ``robot_base_frame``), publishes the master grid as an
+OccupancyGrid on ``/<name>/costmap`` at ``publish_frequency`` and offers the Nav2 clear
+services ``/<name>/clear_entirely_<name>`` and ``/<name>/clear_around_<name>``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from navstack.core.errors import TransformError
+from navstack.core.msgs import (
+    Header,
+    LaserScan,
+    MapMetaData,
+    OccupancyGrid,
+    Point,
+    Pose,
+    Pose2D,
+)
+from navstack.core.polygon import Footprint
+from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
+from navstack.costmap.layered_costmap import LayeredCostmap
+from navstack.costmap.obstacle_layer import ObstacleLayer
+from navstack.costmap.static_layer import StaticLayer
+from navstack.runtime.bus import SENSOR_DATA, QoS
+from navstack.runtime.node import Node, Runtime
+
+
+def costmap_to_grid(cm: Costmap2D, stamp: float) -> OccupancyGrid:
+    """Costmap costs as an OccupancyGrid (0..100, -1 unknown), as Nav2 publishes them."""
+    data = np.where(cm.data == NO_INFORMATION, -1,
+                    (cm.data.astype(np.int16) * 100 + 126) // 253).astype(np.int8)
+    info = MapMetaData(stamp, cm.resolution, cm.size_x, cm.size_y,
+                       Pose(Point(cm.origin_x, cm.origin_y, 0.0)))
+    return OccupancyGrid(Header(stamp, cm.frame_id), info, data)
+
+
+class CostmapNode(Node):
+    """Owns one LayeredCostmap built from Nav2 parameters (the ``ros__parameters`` dict)."""
+
+    def __init__(self, runtime: Runtime, name: str, params: Mapping[str, Any],
+                 footprint: Footprint | None = None, file: str = "") -> None:
+        super().__init__(name, runtime)
+        self.layered = LayeredCostmap.from_nav2(params, footprint, file=file)
+        p = self.layered.params
+        assert p is not None
+        self.global_frame = p.global_frame
+        self.robot_base_frame = p.robot_base_frame
+        self.update_period = 1.0 / p.update_frequency if p.update_frequency > 0 else 0.2
+        self.publish_period = 1.0 / p.publish_frequency if p.publish_frequency > 0 else 0.0
+        self.map_topic = "/" + p.map_topic.lstrip("/")
+        self.updates = 0
+        self.tf_failures = 0
+        self.last_tf_error = ""
+
+    @property
+    def costmap(self) -> Costmap2D:
+        return self.layered.costmap
+
+    def on_configure(self) -> None:
+        self.costmap.frame_id = self.global_frame
+        for layer in self.layered.layers:
+            if isinstance(layer, StaticLayer):
+                self.create_subscription(self.map_topic, OccupancyGrid,
+                                         partial(self._on_map, layer),
+                                         QoS(depth=1, latched=True))
+            elif isinstance(layer, ObstacleLayer):
+                for src, buf in layer.buffers.items():
+                    topic = "/" + buf.params.topic.lstrip("/")
+                    self.create_subscription(topic, LaserScan,
+                                             partial(self._on_scan, layer, src), SENSOR_DATA)
+        self.pub = self.create_publisher(f"/{self.name}/costmap", OccupancyGrid, QoS(depth=1))
+        self.bus.advertise_service(f"/{self.name}/clear_entirely_{self.name}",
+                                   lambda _req: self.clear_all())
+        self.bus.advertise_service(f"/{self.name}/clear_around_{self.name}",
+                                   self._clear_around_request)
+        self.create_timer(self.update_period, self.update)
+        if self.publish_period > 0:
+            self.create_timer(self.publish_period, self.publish)
+
+    def on_cleanup(self) -> None:
+        self.bus.remove_service(f"/{self.name}/clear_entirely_{self.name}")
+        self.bus.remove_service(f"/{self.name}/clear_around_{self.name}")
+
+    # --- inputs -------------------------------------------------------------------------
+    def _on_map(self, layer: StaticLayer, grid: OccupancyGrid) -> None:
+        map_in_costmap: Pose2D | None = None
+        if grid.header.frame_id and grid.header.frame_id != self.global_frame:
+            try:
+                map_in_costmap = self.tf.lookup_pose2d(self.global_frame, grid.header.frame_id)
+            except TransformError as exc:
+                self._tf_failed(exc)
+                return
+        layer.set_map(grid, map_in_costmap)
+
+    def _on_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan) -> None:
+        try:
+            tfs = self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
+        except TransformError as exc:
+            self._tf_failed(exc)
+            return
+        t = tfs.transform
+        layer.add_scan(scan, Pose2D(t.translation.x, t.translation.y, t.rotation.yaw),
+                       t.translation.z, source)
+
+    def _tf_failed(self, exc: Exception) -> None:
+        self.tf_failures += 1
+        self.last_tf_error = str(exc)
+
+    # --- cycle --------------------------------------------------------------------------
+    def robot_pose(self) -> Pose2D | None:
+        """Robot pose in the costmap frame, or ``None`` if TF cannot tell yet."""
+        try:
+            return self.tf.lookup_pose2d(self.global_frame, self.robot_base_frame)
+        except TransformError as exc:
+            self._tf_failed(exc)
+            return None
+
+    def update(self) -> None:
+        pose = self.robot_pose()
+        if pose is None:
+            return
+        self.layered.update_map(pose.x, pose.y, pose.theta, self.now)
+        self.updates += 1
+
+    def publish(self) -> None:
+        if self.layered.initialized:
+            self.pub.publish(costmap_to_grid(self.costmap, self.now))
+
+    def clear_all(self) -> bool:
+        """ClearEntireCostmap, then rebuild at once so callers see the cleared map."""
+        self.layered.clear_all()
+        self.update()
+        return True
+
+    def _clear_around_request(self, reset_distance: float | None) -> bool:
+        return self.clear_around(1.0 if reset_distance is None else float(reset_distance))
+
+    def clear_around(self, reset_distance: float) -> bool:
+        pose = self.robot_pose()
+        if pose is None:
+            return False
+        self.layered.clear_around((pose.x, pose.y), reset_distance)
+        self.update()
+        return True
