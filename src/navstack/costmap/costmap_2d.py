@@ -31,7 +31,7 @@ class Costmap2D:
     origin_y: float = 0.0
     frame_id: str = "map"
     default_value: int = FREE_SPACE
-    data: NDArray[np.uint8] = field(default=None)  # type: ignore[assignment]
+    data: NDArray[np.uint8] = field(default=None)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
         if self.size_x <= 0 or self.size_y <= 0:
@@ -101,15 +101,34 @@ class Costmap2D:
 
         The origin snaps to whole cells, as Nav2's ``Costmap2D::updateOrigin``.
         """
-        cell_ox = int(math.floor((new_origin_x - self.origin_x) / self.resolution))
-        cell_oy = int(math.floor((new_origin_y - self.origin_y) / self.resolution))
+        cell_ox = math.floor((new_origin_x - self.origin_x) / self.resolution)
+        cell_oy = math.floor((new_origin_y - self.origin_y) / self.resolution)
         if cell_ox == 0 and cell_oy == 0:
             return
         new = np.full_like(self.data, self.default_value)
         sx0, sx1 = max(0, cell_ox), min(self.size_x, self.size_x + cell_ox)
         sy0, sy1 = max(0, cell_oy), min(self.size_y, self.size_y + cell_oy)
         if sx0 < sx1 and sy0 < sy1:
-            new[sy0 - cell_oy:sy1 - cell_oy, sx0 - cell_ox:sx1 - cell_ox] = self.data[sy0:sy1, sx0:sx1]
+            new[sy0 - cell_oy:sy1 - cell_oy, sx0 - cell_ox:sx1 - cell_ox] = \
+                self.data[sy0:sy1, sx0:sx1]
         self.data = new
         self.origin_x += cell_ox * self.resolution
         self.origin_y += cell_oy * self.resolution
+
+    def resize_map(self, size_x: int, size_y: int, resolution: float, origin_x: float,
+                   origin_y: float) -> None:
+        """Re-allocate the grid in place (Nav2 ``Costmap2D::resizeMap``); all cells reset.
+
+        In place so that holders of this object (planners, controllers) see the new grid.
+        """
+        if size_x <= 0 or size_y <= 0:
+            raise ValueError(f"costmap size must be positive, got {size_x}x{size_y}")
+        if not resolution > 0.0:
+            raise ValueError(f"costmap resolution must be positive, got {resolution}")
+        self.size_x, self.size_y, self.resolution = int(size_x), int(size_y), float(resolution)
+        self.origin_x, self.origin_y = float(origin_x), float(origin_y)
+        self.data = np.full((self.size_y, self.size_x), self.default_value, dtype=np.uint8)
+
+    def reset_map(self, x0: int, y0: int, xn: int, yn: int) -> None:
+        """Set cells ``[x0, xn) x [y0, yn)`` to ``default_value`` (Nav2 ``resetMap``)."""
+        self.data[max(0, y0):max(0, yn), max(0, x0):max(0, xn)] = self.default_value
