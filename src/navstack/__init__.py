@@ -3,6 +3,24 @@
 Layers (imports only point down): interfaces -> missions -> navigation -> algorithms
 (costmap, planning, control, localization, mapping, perception, geo) -> sim -> drivers ->
 runtime -> core.  See ../shared/ARCHITECTURE.md and docs/.
+
+``navstack.Navigator`` (the nav2_simple_commander-style API) is imported lazily so that
+``import navstack`` stays light.
 """
 
+from typing import Any
+
 __version__ = "0.1.0"
+__all__ = ["NavStack", "Navigator", "TaskResult", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in ("Navigator", "TaskResult"):
+        from navstack.interfaces import api
+
+        return getattr(api, name)
+    if name == "NavStack":
+        from navstack.interfaces.stack import NavStack
+
+        return NavStack
+    raise AttributeError(f"module 'navstack' has no attribute {name!r}")

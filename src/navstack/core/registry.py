@@ -58,6 +58,10 @@ class PluginRegistry(Generic[T]):
     def names(self) -> list[str]:
         return sorted(self._entries)
 
+    def all_names(self) -> list[str]:
+        """Registered names and their aliases (for suggestions)."""
+        return sorted([*self._entries, *self._aliases])
+
     def __contains__(self, name: object) -> bool:
         return name in self._entries or name in self._aliases
 

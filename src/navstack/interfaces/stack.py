@@ -1,0 +1,100 @@
+"""``NavStack``: the default navigation stack in one process, on the built-in simulator.
+
+Wires the data flow of ARCHITECTURE.md §2: simulator (``/scan``, ``/odom``, ``/tf``) ->
+map server (``/map``) -> global costmap (map) + planner server -> local costmap (odom) +
+controller server (``/cmd_vel``) -> behavior server -> BT navigator -> waypoint follower.
+Navigation parameters are a Nav2 parameter file (the packaged default is
+``navstack/config/nav2_params.yaml``).  The robot's footprint comes from its profile and
+overrides ``robot_radius``/``footprint`` in the costmap sections.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from navstack.core.msgs import Pose2D
+from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
+from navstack.costmap.footprint import footprint_cost
+from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
+from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
+from navstack.navigation.controller_server import ControllerServer
+from navstack.navigation.costmap_node import CostmapNode
+from navstack.navigation.map_server import MapServer
+from navstack.navigation.planner_server import PlannerServer
+from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
+from navstack.runtime.config import load_yaml, ros_parameters
+from navstack.runtime.node import Runtime
+from navstack.sim.node import SimulatorNode
+from navstack.sim.robot import load_robot
+from navstack.sim.simulator import Simulator
+from navstack.sim.worlds import load_world
+
+
+def default_nav2_params_path() -> Path:
+    return Path(str(resources.files("navstack") / "config" / "nav2_params.yaml"))
+
+
+class NavStack:
+    """Simulator + Nav2-equivalent servers, configured and active, in one ``Runtime``."""
+
+    def __init__(self, world: str = "office", robot: str = "diff_drive",
+                 nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
+                 spawn: Pose2D | None = None, perfect_localization: bool = True,
+                 physics_rate_hz: float = 50.0) -> None:
+        if nav2_params is None or isinstance(nav2_params, str | Path):
+            path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
+            nav, file = load_yaml(path), str(path)
+        else:
+            nav, file = dict(nav2_params), "<nav2 params>"
+        self.nav2_params = nav
+        self.runtime = rt = Runtime()
+        self.world = load_world(world)
+        self.robot = load_robot(robot)
+        self.footprint = self.robot.footprint_model()
+        self.sim = SimulatorNode(rt, Simulator(self.world, self.robot, seed, spawn),
+                                 physics_rate_hz, perfect_localization)
+        self.map_server = MapServer(rt, grid=self.world.to_occupancy_grid())
+        self.global_costmap = CostmapNode(rt, "global_costmap",
+                                          ros_parameters(nav, "global_costmap", file=file),
+                                          self.footprint, file)
+        self.local_costmap = CostmapNode(rt, "local_costmap",
+                                         ros_parameters(nav, "local_costmap", file=file),
+                                         self.footprint, file)
+        self.planner = PlannerServer(rt, ros_parameters(nav, "planner_server", file=file),
+                                     self.global_costmap, file)
+        self.controller = ControllerServer(
+            rt, ros_parameters(nav, "controller_server", file=file), self.local_costmap,
+            self.footprint, file)
+        self.behaviors = BehaviorServer(
+            rt, BehaviorServerParams.from_mapping(
+                ros_parameters(nav, "behavior_server", file=file), file=file,
+                key_path="behavior_server"),
+            collision_checker=self.local_collision)
+        self.navigator = BtNavigator(rt, BtNavigatorParams.from_mapping(
+            ros_parameters(nav, "bt_navigator", file=file), file=file, key_path="bt_navigator"))
+        self.waypoint_follower = WaypointFollower(rt, WaypointFollowerParams.from_mapping(
+            ros_parameters(nav, "waypoint_follower", file=file), file=file,
+            key_path="waypoint_follower"))
+        rt.bring_up()
+        # a first costmap cycle so planners never see an empty map at t=0
+        rt.scheduler.run_until(0.0)
+        self.global_costmap.update()
+        self.local_costmap.update()
+
+    def local_collision(self, pose_odom: Pose2D) -> bool:
+        """True if the footprint at ``pose_odom`` touches a lethal cell of the local costmap."""
+        cost = footprint_cost(self.local_costmap.costmap,
+                              (pose_odom.x, pose_odom.y, pose_odom.theta), self.footprint)
+        return cost == LETHAL_OBSTACLE
+
+    @property
+    def now(self) -> float:
+        return self.runtime.now
+
+    def run_for(self, seconds: float) -> None:
+        """Advance simulated time."""
+        self.runtime.scheduler.run_for(seconds)
+        self.sim.advance()

@@ -1,0 +1,224 @@
+"""``ControllerServer``: the FollowPath action (Nav2 ``nav2_controller``).
+
+At ``controller_frequency`` it looks up the robot pose in the local costmap's frame
+(``odom``), brings the plan from its frame (``map``) into that frame with the latest
+TF, checks the goal checker and the progress checker, asks the controller plugin for a
+velocity and publishes it.  Parameters are Nav2's (``controller_frequency``,
+``failure_tolerance``, ``controller_plugins``, ``goal_checker_plugins``,
+``progress_checker_plugins`` and the plugin sections).  A goal never fails silently:
+every abort carries a FollowPath error code and a sentence naming the cause.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from navstack.core.errors import ControllerError, InvalidMessage, TransformError
+from navstack.core.geometry import se2_compose
+from navstack.core.msgs import Odometry, Path, Pose2D, Twist, Twist2D
+from navstack.core.params import Params
+from navstack.core.polygon import Footprint
+from navstack.navigation.costmap_node import CostmapNode
+from navstack.navigation.messages import (
+    FOLLOW_PATH,
+    ControllerErrorCode,
+    FollowPathFeedback,
+    FollowPathGoal,
+)
+from navstack.navigation.plugins import (
+    CONTROLLERS,
+    GOAL_CHECKERS,
+    PROGRESS_CHECKERS,
+    build_plugin,
+    load_class,
+    plugin_section,
+)
+from navstack.runtime.actions import ActionServer, GoalHandle
+from navstack.runtime.bus import QoS
+from navstack.runtime.node import Node, Runtime
+
+
+class ControllerServerParams(Params):
+    """nav2_controller parameters (names and Humble defaults)."""
+
+    controller_frequency: float = Field(20.0, gt=0.0)
+    min_x_velocity_threshold: float = 0.001
+    min_y_velocity_threshold: float = 0.5
+    min_theta_velocity_threshold: float = 0.001
+    failure_tolerance: float = 0.3
+    controller_plugins: list[str] = Field(default_factory=lambda: ["FollowPath"])
+    goal_checker_plugins: list[str] = Field(default_factory=lambda: ["general_goal_checker"])
+    progress_checker_plugins: list[str] = Field(default_factory=lambda: ["progress_checker"])
+    progress_checker_plugin: str = ""
+    goal_checker_plugin: str = ""
+    cmd_vel_topic: str = "/cmd_vel"
+    odom_topic: str = "/odom"
+    use_sim_time: bool = True
+    use_realtime_priority: bool = False
+    speed_limit_topic: str = "speed_limit"
+
+
+_KNOWN = set(ControllerServerParams.model_fields)
+
+
+def path_distance(xy: np.ndarray, x: float, y: float) -> float:
+    """Length of the path from its point closest to (x, y) to its end."""
+    if len(xy) == 0:
+        return 0.0
+    i = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
+    rest = xy[i:]
+    first = math.hypot(rest[0, 0] - x, rest[0, 1] - y)
+    return first + float(np.sum(np.hypot(*np.diff(rest, axis=0).T))) if len(rest) > 1 else first
+
+
+class ControllerServer(Node):
+    """FollowPath action server driving a controller plugin on the local costmap."""
+
+    def __init__(self, runtime: Runtime, params: Mapping[str, Any], local_costmap: CostmapNode,
+                 footprint: Footprint | None = None, file: str = "",
+                 name: str = "controller_server") -> None:
+        super().__init__(name, runtime)
+        server = {k: v for k, v in params.items() if k in _KNOWN}
+        self.params = ControllerServerParams.from_mapping(server, file=file, key_path=name)
+        p = self.params
+        self.local_costmap = local_costmap
+        self.controllers: dict[str, Any] = {}
+        for cname in p.controller_plugins:
+            plugin, section = plugin_section(params, cname, "dwb_core::DWBLocalPlanner",
+                                             file=file, key_path=name)
+            cls = load_class(CONTROLLERS, plugin, file=file, key_path=f"{name}.{cname}")
+            self.controllers[cname] = build_plugin(cls, section, file=file,
+                                                   key_path=f"{name}.{cname}",
+                                                   footprint=footprint)
+        self.goal_checkers = {
+            g: self._checker(params, g, GOAL_CHECKERS, "nav2_controller::SimpleGoalChecker",
+                             file) for g in p.goal_checker_plugins}
+        self.progress_checkers = {
+            c: self._checker(params, c, PROGRESS_CHECKERS,
+                             "nav2_controller::SimpleProgressChecker", file)
+            for c in p.progress_checker_plugins}
+        self._goal: GoalHandle[FollowPathGoal] | None = None
+        self._velocity = Twist2D()
+        self._last_valid_cmd_t = 0.0
+        self.cycles = 0
+        self.last_cmd = Twist2D()
+
+    def _checker(self, params: Mapping[str, Any], name: str, registry: Any, default: str,
+                 file: str) -> Any:
+        plugin, section = plugin_section(params, name, default, file=file, key_path=self.name)
+        cls = load_class(registry, plugin, file=file, key_path=f"{self.name}.{name}")
+        return build_plugin(cls, section, file=file, key_path=f"{self.name}.{name}")
+
+    # --- lifecycle ---------------------------------------------------------------------
+    def on_configure(self) -> None:
+        p = self.params
+        self.pub_cmd = self.create_publisher(p.cmd_vel_topic, Twist, QoS(depth=1))
+        self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=1))
+        self.server: ActionServer[FollowPathGoal] = ActionServer(
+            self.bus, FOLLOW_PATH, self._on_goal, self._on_cancel)
+        self.create_timer(1.0 / p.controller_frequency, self._cycle)
+
+    def on_cleanup(self) -> None:
+        self.server.close()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self._velocity = msg.twist.twist.to_twist2d()
+
+    # --- goals --------------------------------------------------------------------------
+    def _on_goal(self, handle: GoalHandle[FollowPathGoal]) -> bool | str:
+        goal = handle.goal
+        if not goal.path.poses:
+            return "FollowPath needs a non-empty path"
+        cid = goal.controller_id or next(iter(self.controllers))
+        if cid not in self.controllers:
+            return (f"unknown controller_id '{cid}'; known: {', '.join(self.controllers)}")
+        if not np.all(np.isfinite(goal.path.as_array())):
+            return "FollowPath path contains NaN or inf"
+        if self._goal is not None and not self._goal.done:
+            # Nav2 semantics: a new path replaces the running one without stopping
+            self._goal.canceled(reason="preempted by a new path")
+        else:
+            for checker in (*self.goal_checkers.values(), *self.progress_checkers.values()):
+                checker.reset()
+            self._last_valid_cmd_t = self.now
+        handle.execute()
+        self._goal = handle
+        return True
+
+    def _on_cancel(self, handle: GoalHandle[FollowPathGoal]) -> None:
+        if handle is self._goal:
+            self._stop()
+            self._goal = None
+        handle.canceled()
+
+    def _stop(self) -> None:
+        self.last_cmd = Twist2D()
+        self.pub_cmd.publish(Twist())
+
+    def _abort(self, code: ControllerErrorCode, reason: str) -> None:
+        self._stop()
+        if self._goal is not None:
+            self._goal.fail(int(code), reason)
+        self._goal = None
+
+    # --- control cycle --------------------------------------------------------------------
+    def _cycle(self) -> None:
+        handle = self._goal
+        if handle is None or handle.done:
+            self._goal = None
+            return
+        self.cycles += 1
+        goal = handle.goal
+        costmap = self.local_costmap.costmap
+        frame = costmap.frame_id
+        try:
+            pose = self.tf.lookup_pose2d(frame, self.local_costmap.robot_base_frame)
+            plan_frame = goal.path.header.frame_id or frame
+            path = goal.path if plan_frame == frame else self._transform_path(goal.path, frame)
+        except TransformError as exc:
+            self._abort(ControllerErrorCode.TF_ERROR,
+                        f"cannot locate the robot or the plan: {exc}")
+            return
+        goal_pose = Pose2D.from_array(path.as_array()[-1])
+        checker = self.goal_checkers[goal.goal_checker_id or next(iter(self.goal_checkers))]
+        if checker.is_goal_reached(pose, goal_pose, self._velocity):
+            self._stop()
+            handle.succeed()
+            self._goal = None
+            return
+        progress = next(iter(self.progress_checkers.values()))
+        if not progress.check(pose, self.now):
+            p = progress.params
+            self._abort(ControllerErrorCode.FAILED_TO_MAKE_PROGRESS,
+                         f"failed to make progress: moved less than "
+                         f"{p.required_movement_radius:.2f} m in "
+                         f"{p.movement_time_allowance:.1f} s")
+            return
+        controller = self.controllers[goal.controller_id or next(iter(self.controllers))]
+        try:
+            cmd = controller.compute(pose, self._velocity, path, costmap, self.now)
+        except (ControllerError, InvalidMessage) as exc:
+            if self.now - self._last_valid_cmd_t > self.params.failure_tolerance:
+                code = ControllerErrorCode.NO_VALID_CONTROL if isinstance(
+                    exc, ControllerError) else ControllerErrorCode.INVALID_PATH
+                self._abort(code, f"controller failed for longer than failure_tolerance "
+                                  f"{self.params.failure_tolerance:.2f} s: {exc}")
+            else:
+                self._stop()
+            return
+        self._last_valid_cmd_t = self.now
+        self.last_cmd = cmd
+        self.pub_cmd.publish(cmd.to_twist())
+        xy = path.as_array()[:, :2]
+        handle.publish_feedback(FollowPathFeedback(path_distance(xy, pose.x, pose.y),
+                                                   math.hypot(cmd.vx, cmd.vy)))
+
+    def _transform_path(self, path: Path, frame: str) -> Path:
+        t = self.tf.lookup_pose2d(frame, path.header.frame_id)
+        arr = se2_compose(t.as_array(), path.as_array())
+        return Path.from_array(arr, frame, path.header.stamp)
