@@ -94,22 +94,29 @@ def sim(
 
 @app.command()
 def demo(
-    out: Annotated[Path, typer.Option(help="Folder for the report.")] = Path("runs/demo"),
+    out: Annotated[Path, typer.Option(help="Folder for report.json, report.md and "
+                                      "trajectory.png.")] = Path("runs/demo"),
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 1,
+    world: Annotated[str, typer.Option(help="World name or path.")] = "office",
+    robot: Annotated[str, typer.Option(help="Robot profile.")] = "diff_drive",
+    waypoints: Annotated[Path | None, typer.Option(
+        help="Waypoints YAML (default: the office waypoints, order Goal_3, Goal_4, "
+             "Goal_2, Goal_1).")] = None,
 ) -> None:
-    """Run the flagship demo in the simulator and write a report to --out."""
-    from navstack.sim.open_loop import run_open_loop
+    """Flagship mission: visit named waypoints in order in the simulator, write a report."""
+    from navstack.interfaces.demo import run_demo
 
     try:
-        report = run_open_loop("office", "diff_drive", 30.0, 0.25, 0.0, seed)
+        report = run_demo(out, seed, world, robot, waypoints)
     except NavstackError as exc:
         raise _fail(str(exc)) from None
-    p = report["final_pose"]
-    typer.echo(f"office corridor drive: {report['duration_s']:.0f} s simulated, final pose "
-               f"({p['x']:.2f}, {p['y']:.2f}), collisions {report['collisions']}, "
-               f"real-time factor {report['real_time_factor']:.0f}")
-    _write_json(out / "report.json", report)
-    typer.echo(f"report: {out / 'report.json'}")
+    verdict = "SUCCESS" if report["success"] else "FAILURE"
+    typer.echo(f"{verdict}: {sum(g['status'] == 'SUCCEEDED' for g in report['goals'])}/"
+               f"{len(report['goals'])} goals, {report['collisions']} collisions, min clearance "
+               f"{report['min_clearance_m']:.2f} m, {report['sim_time_s']:.0f} s simulated in "
+               f"{report['wall_time_s']:.0f} s; report in {out}")
+    if not report["success"]:
+        raise typer.Exit(code=1)
 
 
 @app.command()

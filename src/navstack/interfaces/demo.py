@@ -1,0 +1,195 @@
+"""The flagship demo: visit named waypoints in order in the office world.
+
+``navstack demo`` builds the default stack (simulator with a walking person in the
+corridor, costmaps, NavFn planner, DWB controller, BT navigator with recoveries), sends
+one NavigateToPose goal per waypoint in the order of the waypoint file, shows live
+progress, and writes ``report.json``, ``report.md`` and ``trajectory.png`` to ``--out``.
+Success means every goal SUCCEEDED and the robot never touched anything.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path as FsPath
+from typing import Any
+
+import numpy as np
+
+from navstack.core.msgs import Path, PoseStamped
+from navstack.interfaces.api import Navigator, TaskResult
+from navstack.interfaces.plots import plot_trajectory
+from navstack.interfaces.stack import NavStack
+from navstack.navigation.waypoint_follower import load_waypoints
+from navstack.sim.collision import clearance
+
+
+def default_waypoints_path() -> FsPath:
+    return FsPath(str(resources.files("navstack") / "config" / "office_waypoints.yaml"))
+
+
+@dataclass
+class GoalRecord:
+    name: str
+    status: str = "PENDING"
+    time_s: float = 0.0
+    path_length_m: float = 0.0
+    min_goal_dist_m: float = math.inf
+    recoveries: int = 0
+    reason: str = ""
+
+
+@dataclass
+class TrajectoryRecorder:
+    """Samples the true robot pose and its clearance at a fixed rate."""
+
+    stack: NavStack
+    rows: list[tuple[float, float, float, float]] = field(default_factory=list)
+    min_clearance: float = math.inf
+
+    def sample(self) -> None:
+        sim = self.stack.sim
+        sim.advance()
+        p = sim.sim.pose
+        self.rows.append((self.stack.now, p.x, p.y, p.theta))
+        radius = self.stack.footprint.circumscribed_radius
+        c = clearance(self.stack.world, p.x, p.y, self.stack.now, radius + 3.0) - radius
+        self.min_clearance = min(self.min_clearance, c)
+
+    def array(self) -> np.ndarray:
+        return np.array(self.rows).reshape(-1, 4)
+
+
+def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
+                   rtf: float) -> str:
+    dist = getattr(fb, "distance_remaining", float("nan"))
+    rec_n = getattr(fb, "number_of_recoveries", 0)
+    return (f"[{idx + 1}/{total}] {rec.name:10s} distance remaining {dist:5.2f} m  "
+            f"recoveries {rec_n}  sim {sim_t:6.1f} s  x{rtf:4.0f} real time")
+
+
+def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "diff_drive",
+             waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
+             show_progress: bool = True) -> dict[str, Any]:
+    """Run the waypoint mission and write the report files; returns the report dict."""
+    out.mkdir(parents=True, exist_ok=True)
+    waypoints = load_waypoints(waypoints_file or default_waypoints_path())
+    wall0 = time.perf_counter()
+    stack = NavStack(world, robot, seed=seed)
+    nav = Navigator(stack)
+    recorder = TrajectoryRecorder(stack)
+    stack.runtime.scheduler.create_timer(0.1, recorder.sample, first_at=stack.now)
+    plans: list[np.ndarray] = []
+    stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
+    records = [GoalRecord(name) for name, _ in waypoints]
+    live = _Live(show_progress)
+    for i, ((_, pose), rec) in enumerate(zip(waypoints, records, strict=True)):
+        _run_goal(nav, stack, recorder, pose, rec, i, len(records), goal_timeout_s, live)
+    live.close()
+    wall = time.perf_counter() - wall0
+    traj = recorder.array()
+    collisions = stack.sim.sim.collisions
+    success = all(r.status == "SUCCEEDED" for r in records) and collisions == 0
+    report: dict[str, Any] = {
+        "success": success,
+        "world": world, "robot": robot, "seed": seed,
+        "goals": [{"name": r.name, "status": r.status, "time_s": round(r.time_s, 3),
+                   "path_length_m": round(r.path_length_m, 4),
+                   "min_goal_dist_m": round(r.min_goal_dist_m, 4),
+                   "recoveries": r.recoveries, "reason": r.reason} for r in records],
+        "collisions": collisions,
+        "min_clearance_m": round(recorder.min_clearance, 4),
+        "sim_time_s": round(stack.now, 3),
+        "wall_time_s": round(wall, 3),
+        "real_time_factor": round(stack.now / wall, 2) if wall > 0 else 0.0,
+    }
+    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / "report.md").write_text(_markdown(report))
+    goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}
+    plot_trajectory(stack.world.to_occupancy_grid(), traj[:, 1:3], plans, goals_xy,
+                    out / "trajectory.png",
+                    title=f"navstack demo: {world}, {' -> '.join(r.name for r in records)}")
+    return report
+
+
+def _run_goal(nav: Navigator, stack: NavStack, recorder: TrajectoryRecorder, pose: PoseStamped,
+              rec: GoalRecord, idx: int, total: int, timeout: float, live: _Live) -> None:
+    t0 = stack.now
+    n0 = len(recorder.rows)
+    gx, gy = pose.pose.position.x, pose.pose.position.y
+    if not nav.goToPose(pose):
+        rec.status, rec.reason = "FAILED", nav.last_error
+        return
+    wall0, sim0 = time.perf_counter(), stack.now
+    while not nav.isTaskComplete():
+        if stack.now - t0 > timeout:
+            nav.cancelTask()
+            rec.reason = f"timed out after {timeout:.0f} s"
+            break
+        wall = time.perf_counter() - wall0
+        live.update(_progress_line(rec, idx, total, nav.getFeedback(), stack.now,
+                                   (stack.now - sim0) / wall if wall > 0 else 0.0))
+    result = nav.getTaskResult()
+    rec.status = {TaskResult.SUCCEEDED: "SUCCEEDED", TaskResult.CANCELED: "CANCELED",
+                  TaskResult.FAILED: "FAILED"}.get(nav.getResult(), "UNKNOWN")
+    if result is not None and result.error_msg and not rec.reason:
+        rec.reason = result.error_msg
+    payload = result.result if result is not None else None
+    rec.recoveries = int(getattr(payload, "number_of_recoveries", 0))
+    rec.time_s = stack.now - t0
+    seg = recorder.array()[n0:, 1:3]
+    if len(seg) > 1:
+        rec.path_length_m = float(np.sum(np.hypot(*np.diff(seg, axis=0).T)))
+    if len(seg):
+        rec.min_goal_dist_m = float(np.min(np.hypot(seg[:, 0] - gx, seg[:, 1] - gy)))
+    live.done(f"[{idx + 1}/{total}] {rec.name:10s} {rec.status:9s} in {rec.time_s:6.1f} s, "
+              f"{rec.path_length_m:5.2f} m driven, closest {rec.min_goal_dist_m:.3f} m"
+              + (f" — {rec.reason}" if rec.reason else ""))
+
+
+class _Live:
+    """One status line that rewrites itself on a terminal, plain lines otherwise."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.tty = sys.stdout.isatty()
+        self._last = 0.0
+
+    def update(self, line: str) -> None:
+        if self.enabled and self.tty and time.perf_counter() - self._last > 0.1:
+            self._last = time.perf_counter()
+            sys.stdout.write("\r\033[K" + line)
+            sys.stdout.flush()
+
+    def done(self, line: str) -> None:
+        if self.enabled:
+            sys.stdout.write(("\r\033[K" if self.tty else "") + line + "\n")
+            sys.stdout.flush()
+
+    def close(self) -> None:
+        if self.enabled and self.tty:
+            sys.stdout.write("\r\033[K")
+
+
+def _markdown(r: dict[str, Any]) -> str:
+    lines = [f"# navstack demo report — {'SUCCESS' if r['success'] else 'FAILURE'}", "",
+             f"World `{r['world']}`, robot `{r['robot']}`, seed {r['seed']}.", "",
+             "| goal | status | time [s] | path length [m] | min goal distance [m] | "
+             "recoveries |", "|---|---|---:|---:|---:|---:|"]
+    for g in r["goals"]:
+        lines.append(f"| {g['name']} | {g['status']} | {g['time_s']:.1f} | "
+                     f"{g['path_length_m']:.2f} | {g['min_goal_dist_m']:.3f} | "
+                     f"{g['recoveries']} |")
+    lines += ["", f"- collisions: {r['collisions']}",
+              f"- minimum clearance: {r['min_clearance_m']:.3f} m",
+              f"- simulated time: {r['sim_time_s']:.1f} s, wall time: {r['wall_time_s']:.1f} s "
+              f"(real-time factor {r['real_time_factor']:.1f})", "",
+              "![trajectory](trajectory.png)", ""]
+    failed = [g for g in r["goals"] if g["reason"]]
+    if failed:
+        lines += ["## Failures", ""] + [f"- {g['name']}: {g['reason']}" for g in failed] + [""]
+    return "\n".join(lines)
