@@ -162,5 +162,10 @@ class NoValidControl(ControllerError):
     """No admissible velocity command was found this cycle."""
 
 
+class InvalidPath(ControllerError):
+    """The path given to a controller is empty, in the wrong frame or far from the robot
+    (``nav2_core::InvalidPath``)."""
+
+
 class PatienceExceeded(ControllerError):
     """The controller failed for longer than its failure tolerance."""

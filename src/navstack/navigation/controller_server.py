@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from navstack.core.errors import ControllerError, InvalidMessage, TransformError
-from navstack.core.geometry import se2_compose
+from navstack.core.errors import ControllerError, InvalidMessage, InvalidPath, TransformError
+from navstack.core.geometry import angle_diff, se2_compose
 from navstack.core.msgs import Odometry, Path, Pose2D, Twist, Twist2D
 from navstack.core.params import Params
 from navstack.core.polygon import Footprint
@@ -107,6 +107,7 @@ class ControllerServer(Node):
         self._last_valid_cmd_t = 0.0
         self.cycles = 0
         self.last_cmd = Twist2D()
+        self._plan_cache: tuple[Path, Pose2D, Path] | None = None
 
     def _checker(self, params: Mapping[str, Any], name: str, registry: Any, default: str,
                  file: str) -> Any:
@@ -178,8 +179,7 @@ class ControllerServer(Node):
         frame = costmap.frame_id
         try:
             pose = self.tf.lookup_pose2d(frame, self.local_costmap.robot_base_frame)
-            plan_frame = goal.path.header.frame_id or frame
-            path = goal.path if plan_frame == frame else self._transform_path(goal.path, frame)
+            path = self._plan_in(goal.path, frame)
         except TransformError as exc:
             self._abort(ControllerErrorCode.TF_ERROR,
                         f"cannot locate the robot or the plan: {exc}")
@@ -195,17 +195,17 @@ class ControllerServer(Node):
         if not progress.check(pose, self.now):
             p = progress.params
             self._abort(ControllerErrorCode.FAILED_TO_MAKE_PROGRESS,
-                         f"failed to make progress: moved less than "
-                         f"{p.required_movement_radius:.2f} m in "
-                         f"{p.movement_time_allowance:.1f} s")
+                        f"failed to make progress: moved less than "
+                        f"{p.required_movement_radius:.2f} m in "
+                        f"{p.movement_time_allowance:.1f} s")
             return
         controller = self.controllers[goal.controller_id or next(iter(self.controllers))]
         try:
             cmd = controller.compute(pose, self._velocity, path, costmap, self.now)
         except (ControllerError, InvalidMessage) as exc:
             if self.now - self._last_valid_cmd_t > self.params.failure_tolerance:
-                code = ControllerErrorCode.NO_VALID_CONTROL if isinstance(
-                    exc, ControllerError) else ControllerErrorCode.INVALID_PATH
+                code = ControllerErrorCode.INVALID_PATH if isinstance(
+                    exc, InvalidPath | InvalidMessage) else ControllerErrorCode.NO_VALID_CONTROL
                 self._abort(code, f"controller failed for longer than failure_tolerance "
                                   f"{self.params.failure_tolerance:.2f} s: {exc}")
             else:
@@ -218,7 +218,22 @@ class ControllerServer(Node):
         handle.publish_feedback(FollowPathFeedback(path_distance(xy, pose.x, pose.y),
                                                    math.hypot(cmd.vx, cmd.vy)))
 
-    def _transform_path(self, path: Path, frame: str) -> Path:
-        t = self.tf.lookup_pose2d(frame, path.header.frame_id)
-        arr = se2_compose(t.as_array(), path.as_array())
-        return Path.from_array(arr, frame, path.header.stamp)
+    def _plan_in(self, path: Path, frame: str) -> Path:
+        """The plan in the controller's frame.
+
+        Re-transformed only when the plan changes or ``frame <- plan frame`` has moved by
+        more than 1 cm / 0.005 rad since the last transform, so the controller keeps one
+        plan object (a new object resets DWB's critics, as Nav2's setPlan does).
+        """
+        src = path.header.frame_id or frame
+        if src == frame:
+            return path
+        t = self.tf.lookup_pose2d(frame, src)
+        cached = self._plan_cache
+        if (cached is not None and cached[0] is path and t.distance_to(cached[1]) < 0.01
+                and abs(angle_diff(t.theta, cached[1].theta)) < 0.005):
+            return cached[2]
+        moved = Path.from_array(se2_compose(t.as_array(), path.as_array()), frame,
+                                path.header.stamp)
+        self._plan_cache = (path, t, moved)
+        return moved

@@ -1,0 +1,99 @@
+"""Obstacle critics: ``dwb_critics::BaseObstacleCritic`` and ``ObstacleFootprintCritic``.
+
+Both reject a trajectory at its first pose that is off the costmap or in an illegal
+cell, and otherwise score it by the cost of its *last* pose (``sum_scores: false``,
+Nav2's default: the branchless ``score = sum_scores * score + pose_score``) or the sum
+over all its poses (``sum_scores: true``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from navstack.control.dwb.critic_base import (
+    CriticContext,
+    CriticParams,
+    FloatArray,
+    TrajectoryCritic,
+    batch_cells,
+    first_failure,
+    register_critic,
+    reject_scores,
+)
+from navstack.control.dwb.grid import footprint_costs
+from navstack.control.dwb.params import DWBParams
+from navstack.control.dwb.trajectory_generator import TrajectoryBatch
+from navstack.core.errors import ConfigError
+from navstack.core.polygon import Footprint
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+
+
+class ObstacleParams(CriticParams):
+    """``<critic>.sum_scores``: sum the costs along the trajectory instead of the last one."""
+
+    sum_scores: bool = False
+
+
+def _aggregate(costs: FloatArray, batch: TrajectoryBatch, sum_scores: bool) -> FloatArray:
+    """Last real pose's cost, or the sum over the real poses, per sample."""
+    if sum_scores:
+        return np.where(batch.valid_mask(), costs, 0.0).sum(axis=1)
+    return costs[np.arange(len(batch)), batch.lengths - 1]
+
+
+@register_critic("BaseObstacle")
+class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
+    """Cost of the cells under the robot centre; lethal, inscribed or unknown rejects.
+
+    Nav2 default scale in ``nav2_params.yaml``: 0.02.
+    """
+
+    params_model = ObstacleParams
+    reasons = ("off grid", "collision", "unknown space")
+    default_scale = 0.02
+
+    def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
+        mx, my, inside = batch_cells(batch, ctx.costmap)
+        cost = ctx.costmap.data[my, mx]
+        codes = np.where(~inside, 1,
+                         np.where(cost == NO_INFORMATION, 3,
+                                  np.where(cost >= INSCRIBED_INFLATED_OBSTACLE, 2, 0)))
+        scores = _aggregate(cost.astype(np.float64), batch, self.params.sum_scores)
+        return reject_scores(scores, first_failure(codes))
+
+
+@register_critic("ObstacleFootprint")
+class ObstacleFootprintCritic(TrajectoryCritic[ObstacleParams]):
+    """Max cost on the rasterised footprint outline at each pose; lethal/unknown rejects.
+
+    Inscribed cost does not reject here (the outline is what must stay clear), which is
+    what lets a polygonal robot use narrower gaps than ``BaseObstacle`` allows.
+    """
+
+    params_model = ObstacleParams
+    reasons = ("off grid", "footprint off grid", "collision", "unknown space")
+    default_scale = 0.02
+
+    def __init__(self, name: str, params: ObstacleParams, dwb: DWBParams,
+                 footprint: Footprint | None = None) -> None:
+        if footprint is None:
+            raise ConfigError(
+                "the ObstacleFootprint critic needs the robot footprint",
+                key_path=f"{name}",
+                suggestion="pass footprint=Footprint.from_polygon(...) or "
+                           "Footprint.from_radius(r) to the DWB controller")
+        super().__init__(name, params, dwb, footprint)
+        self._polygon = np.ascontiguousarray(footprint.polygon, dtype=np.float64)
+
+    def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
+        cm = ctx.costmap
+        real = batch.valid_mask()
+        costs_real, codes_real = footprint_costs(
+            np.ascontiguousarray(batch.poses[real]), self._polygon, cm.data,
+            cm.origin_x, cm.origin_y, cm.resolution)
+        costs = np.zeros(real.shape)
+        codes = np.zeros(real.shape, dtype=np.int64)
+        costs[real] = costs_real
+        codes[real] = codes_real
+        scores = _aggregate(costs, batch, self.params.sum_scores)
+        return reject_scores(scores, first_failure(codes))
