@@ -38,13 +38,14 @@ def test_topics_rates_and_tf_chain() -> None:
     topics = rt.bus.topics
     assert 9.0 <= topics["/scan"].rate_hz() <= 11.0
     assert 48.0 <= topics["/odom"].rate_hz() <= 52.0
-    # map -> odom -> base_link -> lidar all resolve (perfect localization on)
+    # map -> odom -> base_link -> lidar all resolve (perfect localization on); map->odom
+    # comes at 10 Hz, so it lags the odometry noise of the last 0.1 s (well under 1 mm)
     lidar_frame = node.sim.robot.sensors.lidar.frame_id
     p = rt.tf.lookup_pose2d("map", lidar_frame)
     spawn = node.sim.world.spawn
     mount = node.sim.robot.sensors.lidar.mount
-    assert math.isclose(p.x, spawn.x + mount.x, abs_tol=1e-6)
-    assert math.isclose(p.y, spawn.y + mount.y, abs_tol=1e-6)
+    assert math.isclose(p.x, spawn.x + mount.x, abs_tol=1e-3)
+    assert math.isclose(p.y, spawn.y + mount.y, abs_tol=1e-3)
 
 
 def test_nan_command_is_rejected_counted_and_sim_keeps_running() -> None:

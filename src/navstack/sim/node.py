@@ -6,9 +6,10 @@ most ``1 / physics_rate_hz``.  The trajectory is the same as with a fixed-rate p
 timer (exact arc integration, collision checks every step) at a fraction of the events.
 
 Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
-(nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link, and map -> odom when
-``perfect_localization`` is on so navigation can run before localization exists),
-``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
+(nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link at the odometry
+rate, and map -> odom when ``perfect_localization`` is on so navigation can run before
+localization exists: at 10 Hz, future-dated by 0.1 s as AMCL's ``transform_tolerance``
+does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
 (the true pose in ``map``).  Each sensor runs on its own timer at its configured rate.
 """
 
@@ -42,6 +43,9 @@ class SimulatorNode(Node):
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
+        self.map_odom_period = 0.1
+        self.map_odom_tolerance = 0.1
+        self._next_map_odom_t = 0.0
         self._last_imu_t = 0.0
         self._odom_pose = Pose2D()
         self.scans_published = 0
@@ -118,10 +122,15 @@ class SimulatorNode(Node):
         self._odom_pose = p.to_pose2d()
         tfs = [TransformStamped(Header(now, odom.header.frame_id), odom.child_frame_id,
                                 Transform(Vector3(p.position.x, p.position.y, 0.0), p.orientation))]
-        if self.perfect_localization:
-            map_to_odom = self.sim.pose.compose(self._odom_pose.inverse())
-            tfs.append(TransformStamped(Header(now, "map"), odom.header.frame_id,
-                                        Transform.from_pose2d(map_to_odom)))
+        if self.perfect_localization and now >= self._next_map_odom_t:
+            # like AMCL: map->odom at a lower rate, future-dated by transform_tolerance
+            # so lookups at the newest odometry time never wait for it
+            transform = Transform.from_pose2d(self.sim.pose.compose(self._odom_pose.inverse()))
+            if self._next_map_odom_t == 0.0:
+                tfs.append(TransformStamped(Header(now, "map"), odom.header.frame_id, transform))
+            tfs.append(TransformStamped(Header(now + self.map_odom_tolerance, "map"),
+                                        odom.header.frame_id, transform))
+            self._next_map_odom_t = now + self.map_odom_period
         self.pub_tf.publish(TFMessage(tuple(tfs)))
 
     def _imu(self) -> None:

@@ -40,6 +40,12 @@ class Simulator:
         self.model = make_model(robot.kinematics)
         self.footprint = robot.footprint_model()
         self._fp_local = np.ascontiguousarray(self.footprint.polygon, dtype=np.float64)
+        radius = self.footprint.circumscribed_radius
+        self._dist = world.distance_field()
+        self._broad_radius = radius + 1.5 * world.resolution
+        self._moving_bounds = [
+            (o, radius + (o.radius if o.shape == "circle" else 0.5 * math.hypot(*o.size)) + 0.05)
+            for o in world.moving_obstacles]
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
@@ -94,7 +100,7 @@ class Simulator:
             new = self.model.step(self.state, Twist2D(), dt)
         self.time += dt
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
-        if moved and footprint_collides(self.world, self._footprint_at(new), self.time):
+        if moved and self._collides(new):
             if self.time - self._last_contact_t > self.contact_release_s:
                 self.collisions += 1
             self._last_contact_t = self.time
@@ -104,6 +110,30 @@ class Simulator:
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step
             self.odometry.integrate(new, dt, self.rng)
+
+    def _collides(self, state: RobotState) -> bool:
+        """Footprint contact at ``state``, with a cheap broad phase first.
+
+        The static part is skipped when the distance field at the robot's cell exceeds
+        the circumscribed radius plus 1.5 cells (no occupied square can reach the
+        footprint), the moving part when every obstacle's bounding circle is farther
+        than that radius; only then is the exact polygon test run.
+        """
+        w = self.world
+        col = math.floor((state.x - w.origin_x) / w.resolution)
+        row = math.floor((state.y - w.origin_y) / w.resolution)
+        near_static = True
+        if 0 <= row < self._dist.shape[0] and 0 <= col < self._dist.shape[1]:
+            near_static = self._dist[row, col] <= self._broad_radius
+        near_moving = False
+        for obstacle, bound in self._moving_bounds:
+            ox, oy, _ = obstacle.pose_at(self.time)
+            if math.hypot(ox - state.x, oy - state.y) <= bound:
+                near_moving = True
+                break
+        if not (near_static or near_moving):
+            return False
+        return footprint_collides(w, self._footprint_at(state), self.time)
 
     def _footprint_at(self, state: RobotState) -> NDArray[np.float64]:
         """Footprint polygon in the world at ``state`` (plain numpy: runs every step)."""
