@@ -13,6 +13,7 @@ SUITE_MODULES: dict[str, str] = {
     "sim": "navstack.benchmarks.sim",
     "planners": "navstack.benchmarks.planners",
     "costmap": "navstack.benchmarks.costmap",
+    "navigation": "navstack.benchmarks.navigation",
 }
 
 

@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from navstack.core.msgs import Pose2D
+from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
 from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
@@ -30,6 +30,7 @@ from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import load_robot
 from navstack.sim.simulator import Simulator
+from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
 
@@ -40,10 +41,12 @@ def default_nav2_params_path() -> Path:
 class NavStack:
     """Simulator + Nav2-equivalent servers, configured and active, in one ``Runtime``."""
 
-    def __init__(self, world: str = "office", robot: str = "diff_drive",
+    def __init__(self, world: str | World = "office", robot: str = "diff_drive",
                  nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
                  spawn: Pose2D | None = None, perfect_localization: bool = True,
-                 physics_rate_hz: float = 50.0) -> None:
+                 physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None) -> None:
+        """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
+        the map given to navigation (default: the world's true static map)."""
         if nav2_params is None or isinstance(nav2_params, str | Path):
             path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
             nav, file = load_yaml(path), str(path)
@@ -51,12 +54,12 @@ class NavStack:
             nav, file = dict(nav2_params), "<nav2 params>"
         self.nav2_params = nav
         self.runtime = rt = Runtime()
-        self.world = load_world(world)
+        self.world = load_world(world) if isinstance(world, str) else world
         self.robot = load_robot(robot)
         self.footprint = self.robot.footprint_model()
         self.sim = SimulatorNode(rt, Simulator(self.world, self.robot, seed, spawn),
                                  physics_rate_hz, perfect_localization)
-        self.map_server = MapServer(rt, grid=self.world.to_occupancy_grid())
+        self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
         self.global_costmap = CostmapNode(rt, "global_costmap",
                                           ros_parameters(nav, "global_costmap", file=file),
                                           self.footprint, file)

@@ -1,0 +1,230 @@
+"""``navstack bench navigation``: closed-loop navigation scenarios in the simulator.
+
+At least 30 scenarios over the built-in worlds, generated deterministically:
+
+* random reachable start/goal pairs (>= 3 m apart, >= 0.5 m clearance) in ``office``
+  (doors 0.9 m wide, a person walking the corridor), ``warehouse`` (forklift and worker
+  moving) and ``maze``;
+* office room-to-room trips between the named goals (through the doors);
+* a blocked aisle: a pallet that is not on the map closes warehouse aisle 1, so the
+  robot must discover it, recover and reroute through the next aisle;
+* unreachable goals (outside the map, inside a rack, inside a walled pocket) that must
+  end FAILED with a reason within a bounded time.
+
+Metrics: ``success_rate`` (reachable scenarios reaching the goal, and unreachable ones
+failing cleanly with a reason in time), ``collisions`` (sum), ``dwb_cycle_ms`` (median
+controller compute time measured inside the runs), ``real_time_factor`` (total simulated
+/ total wall time), ``unreachable_max_time_s``.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from navstack.benchmarks.common import BenchResult
+from navstack.core.msgs import Pose2D, PoseStamped
+from navstack.sim.world import World
+from navstack.sim.worlds import load_world
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    world: str
+    start: Pose2D
+    goal: Pose2D
+    kind: str = "random"  # random | doors | blocked | unreachable
+    expect_success: bool = True
+    block: tuple[float, float, float, float] | None = None  # unmapped box x0, y0, x1, y1
+    pocket: tuple[float, float, float, float] | None = None  # walled square, mapped
+    timeout_s: float = 120.0
+
+
+@dataclass
+class Outcome:
+    scenario: Scenario
+    status: str = ""
+    reason: str = ""
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    collisions: int = 0
+    recoveries: int = 0
+    final_dist_m: float = math.inf
+    cycle_ms: list[float] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        if self.scenario.expect_success:
+            return self.status == "SUCCEEDED" and self.collisions == 0
+        return self.status == "FAILED" and bool(self.reason) and self.collisions == 0
+
+
+def _free_cells(world: World, clearance: float) -> np.ndarray:
+    """Cells with at least ``clearance`` to obstacles, in the largest connected region."""
+    free = world.distance_field() >= clearance
+    labels, n = ndimage.label(free)
+    if n == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    sizes = np.bincount(labels.ravel())[1:]
+    keep = labels == (1 + int(np.argmax(sizes)))
+    return np.argwhere(keep)
+
+
+def random_pairs(world_name: str, count: int, rng: np.random.Generator,
+                 min_dist: float = 3.0) -> list[Scenario]:
+    world = load_world(world_name)
+    cells = _free_cells(world, 0.55)
+    out: list[Scenario] = []
+    while len(out) < count:
+        a, b = cells[rng.integers(len(cells), size=2)]
+        sx, sy = world.cell_center(int(a[0]), int(a[1]))
+        gx, gy = world.cell_center(int(b[0]), int(b[1]))
+        if math.hypot(gx - sx, gy - sy) < min_dist:
+            continue
+        start = Pose2D(sx, sy, float(rng.uniform(-math.pi, math.pi)))
+        goal = Pose2D(gx, gy, float(rng.uniform(-math.pi, math.pi)))
+        dist = math.hypot(gx - sx, gy - sy)
+        out.append(Scenario(f"{world_name}_random_{len(out)}", world_name, start, goal,
+                            timeout_s=90.0 + 8.0 * dist))
+    return out
+
+
+def scenarios(quick: bool = False, seed: int = 7) -> list[Scenario]:
+    """The scenario suite (quick: a smaller deterministic subset for CI)."""
+    rng = np.random.default_rng(seed)
+    n_office, n_warehouse, n_maze = (3, 2, 1) if quick else (10, 10, 6)
+    out = random_pairs("office", n_office, rng)
+    out += random_pairs("warehouse", n_warehouse, rng)
+    out += random_pairs("maze", n_maze, rng, min_dist=2.5)
+    office = load_world("office")
+    wp = office.waypoints
+    trips = [("Goal_1", "Goal_2"), ("Goal_4", "Goal_3"), ("Goal_2", "Goal_1"),
+             ("Goal_3", "Goal_4")]
+    for a, b in trips[:1] if quick else trips:
+        out.append(Scenario(f"office_{a}_to_{b}", "office", wp[a], wp[b], "doors",
+                            timeout_s=240.0))
+    out.append(Scenario("warehouse_blocked_aisle", "warehouse", Pose2D(8.25, 4.5, 1.5708),
+                        Pose2D(8.25, 23.5, 1.5708), "blocked",
+                        block=(6.9, 13.5, 9.6, 14.5), timeout_s=240.0))
+    out.append(Scenario("office_goal_outside_map", "office", office.spawn,
+                        Pose2D(35.0, 7.5, 0.0), "unreachable", expect_success=False,
+                        timeout_s=120.0))
+    if not quick:
+        out.append(Scenario("warehouse_goal_in_rack", "warehouse", Pose2D(2.0, 2.0, 0.0),
+                            Pose2D(10.0, 14.0, 0.0), "unreachable", expect_success=False,
+                            timeout_s=120.0))
+        out.append(Scenario("warehouse_walled_pocket", "warehouse", Pose2D(2.0, 2.0, 0.0),
+                            Pose2D(20.0, 27.5, 0.0), "unreachable", expect_success=False,
+                            pocket=(19.0, 26.5, 21.0, 28.5), timeout_s=180.0))
+    return out
+
+
+def _with_box(world: World, box: tuple[float, float, float, float]) -> World:
+    occ = world.occupied.copy()
+    x0, y0, x1, y1 = box
+    c0 = int((x0 - world.origin_x) / world.resolution)
+    c1 = math.ceil((x1 - world.origin_x) / world.resolution)
+    r0 = int((y0 - world.origin_y) / world.resolution)
+    r1 = math.ceil((y1 - world.origin_y) / world.resolution)
+    occ[max(r0, 0):r1, max(c0, 0):c1] = True
+    return replace(world, occupied=occ)
+
+
+def _with_pocket(world: World, square: tuple[float, float, float, float]) -> World:
+    x0, y0, x1, y1 = square
+    t = 0.1
+    for wall in ((x0, y0, x1, y0 + t), (x0, y1 - t, x1, y1), (x0, y0, x0 + t, y1),
+                 (x1 - t, y0, x1, y1)):
+        world = _with_box(world, wall)
+    return world
+
+
+def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
+    from navstack.interfaces.api import Navigator, TaskResult
+    from navstack.interfaces.stack import NavStack
+
+    world = load_world(sc.world)
+    if sc.pocket is not None:
+        world = _with_pocket(world, sc.pocket)
+    map_grid = world.to_occupancy_grid()
+    if sc.block is not None:
+        world = _with_box(world, sc.block)  # in the simulator only, not on the map
+    wall0 = time.perf_counter()
+    stack = NavStack(world, seed=seed, spawn=sc.start, map_grid=map_grid)
+    outcome = Outcome(sc)
+    ctrl = next(iter(stack.controller.controllers.values()))
+    compute = ctrl.compute
+
+    def timed(*args: Any, **kwargs: Any) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return compute(*args, **kwargs)
+        finally:
+            outcome.cycle_ms.append((time.perf_counter() - t0) * 1e3)
+
+    ctrl.compute = timed
+    nav = Navigator(stack)
+    t0 = stack.now
+    if nav.goToPose(PoseStamped.from_pose2d(sc.goal, "map", stack.now)):
+        while not nav.isTaskComplete():
+            if stack.now - t0 > sc.timeout_s:
+                nav.cancelTask()
+                outcome.reason = f"timed out after {sc.timeout_s:.0f} s"
+                break
+        result = nav.getTaskResult()
+        outcome.status = {TaskResult.SUCCEEDED: "SUCCEEDED", TaskResult.FAILED: "FAILED",
+                          TaskResult.CANCELED: "CANCELED"}.get(nav.getResult(), "UNKNOWN")
+        if outcome.status == "CANCELED":
+            outcome.status = "TIMEOUT"
+        if result is not None and not outcome.reason:
+            outcome.reason = result.error_msg
+        outcome.recoveries = int(getattr(result.result if result else None,
+                                         "number_of_recoveries", 0))
+    else:
+        outcome.status, outcome.reason = "FAILED", nav.last_error
+    outcome.sim_time_s = stack.now - t0
+    outcome.wall_time_s = time.perf_counter() - wall0
+    outcome.collisions = stack.sim.sim.collisions
+    p = stack.sim.sim.pose
+    outcome.final_dist_m = math.hypot(p.x - sc.goal.x, p.y - sc.goal.y)
+    return outcome
+
+
+def run(quick: bool, data_dir: Path | None, controller: str = "") -> BenchResult:
+    result = BenchResult("navigation")
+    outcomes = [run_scenario(sc, seed=i, controller=controller)
+                for i, sc in enumerate(scenarios(quick))]
+    cycles = [c for o in outcomes for c in o.cycle_ms]
+    sim_total = sum(o.sim_time_s for o in outcomes)
+    wall_total = sum(o.wall_time_s for o in outcomes)
+    unreachable = [o for o in outcomes if not o.scenario.expect_success]
+    result.metrics = {
+        "scenarios": float(len(outcomes)),
+        "success_rate": sum(o.passed for o in outcomes) / len(outcomes),
+        "collisions": float(sum(o.collisions for o in outcomes)),
+        "dwb_cycle_ms": float(statistics.median(cycles)) if cycles else math.nan,
+        "real_time_factor": sim_total / wall_total if wall_total > 0 else math.nan,
+        "unreachable_max_time_s": max((o.sim_time_s for o in unreachable), default=0.0),
+        "recoveries_blocked_aisle": float(sum(o.recoveries for o in outcomes
+                                              if o.scenario.kind == "blocked")),
+    }
+    for o in outcomes:
+        result.cases.append({
+            "name": o.scenario.name, "kind": o.scenario.kind, "passed": o.passed,
+            "status": o.status, "reason": o.reason, "sim_time_s": round(o.sim_time_s, 2),
+            "wall_time_s": round(o.wall_time_s, 2), "collisions": o.collisions,
+            "recoveries": o.recoveries, "final_dist_m": round(o.final_dist_m, 3)})
+    failed = [c["name"] for c in result.cases if not c["passed"]]
+    result.notes.append("budgets: success_rate >= 0.95, collisions == 0, dwb_cycle_ms <= 5, "
+                        "real_time_factor >= 10")
+    if failed:
+        result.notes.append("not passed: " + ", ".join(failed))
+    return result
