@@ -13,19 +13,21 @@ import itertools
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any, Literal
 
 ClockMode = Literal["sim", "wall"]
 
 
-@dataclass(order=True)
 class _Event:
-    time: float
-    seq: int
-    fn: Callable[..., Any] = field(compare=False)
-    args: tuple[Any, ...] = field(compare=False, default=())
-    cancelled: bool = field(compare=False, default=False)
+    """One scheduled call; the heap holds ``(time, seq, event)`` tuples (fast compares)."""
+
+    __slots__ = ("args", "cancelled", "fn", "time")
+
+    def __init__(self, time: float, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+        self.time = time
+        self.fn = fn
+        self.args = args
+        self.cancelled = False
 
 
 class EventHandle:
@@ -89,7 +91,7 @@ class Scheduler:
             raise ValueError(f"clock mode must be 'sim' or 'wall', got {mode!r}")
         self.mode: ClockMode = mode
         self.rate = rate
-        self._queue: list[_Event] = []
+        self._queue: list[tuple[float, int, _Event]] = []
         self._seq = itertools.count()
         self._stopped = False
         self.events_run = 0
@@ -118,8 +120,9 @@ class Scheduler:
     # --- scheduling ------------------------------------------------------------
     def call_at(self, t: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
         """Run ``fn(*args)`` at time ``t`` (not before ``now``)."""
-        ev = _Event(max(t, self._now), next(self._seq), fn, args)
-        heapq.heappush(self._queue, ev)
+        t = max(t, self._now)
+        ev = _Event(t, fn, args)
+        heapq.heappush(self._queue, (t, next(self._seq), ev))
         return EventHandle(ev)
 
     def call_soon(self, fn: Callable[..., Any], *args: Any) -> EventHandle:
@@ -141,7 +144,7 @@ class Scheduler:
     def step(self) -> bool:
         """Run the next event; ``False`` if there is none."""
         while self._queue:
-            ev = heapq.heappop(self._queue)
+            ev = heapq.heappop(self._queue)[2]
             if ev.cancelled:
                 continue
             wall = self._wall_time_for(ev.time)
@@ -168,9 +171,9 @@ class Scheduler:
                 return True
             if self._stopped:
                 return True
-            while queue and queue[0].cancelled:
+            while queue and queue[0][2].cancelled:
                 heapq.heappop(queue)
-            if not queue or queue[0].time > t_end:
+            if not queue or queue[0][0] > t_end:
                 break
             self.step()
         wall = self._wall_time_for(t_end)
@@ -186,4 +189,4 @@ class Scheduler:
         return self.run_until(self._now + duration, until)
 
     def pending(self) -> int:
-        return sum(1 for e in self._queue if not e.cancelled)
+        return sum(1 for e in self._queue if not e[2].cancelled)
