@@ -1,0 +1,172 @@
+"""Path helpers shared by the grid planners: cells -> world, orientations, smoothing.
+
+Smoothing follows Nav2's ``nav2_smoother::SimpleSmoother`` (parameters ``tolerance``,
+``max_its``, ``w_data``, ``w_smooth``, ``do_refinement``, ``refinement_num``, Nav2's
+defaults): Gauss-Seidel gradient descent that pulls every interior point toward its
+original position (``w_data``) and toward the midpoint of its neighbours
+(``w_smooth``), end points fixed.  Unlike Nav2, which abandons the whole iteration when a
+point lands in collision, an update that would put a point — or the segments to its
+neighbours — into a cell of cost >= INSCRIBED (or unknown, unless allowed) is simply not
+taken, so the result is always collision free and smoothing continues elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field
+
+from navstack.core.msgs import Path
+from navstack.core.params import Params
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION, Costmap2D
+
+
+class SimpleSmootherParams(Params):
+    """Nav2 ``SimpleSmoother`` parameters (same names and defaults)."""
+
+    tolerance: float = Field(1e-10, gt=0.0)
+    max_its: int = Field(1000, ge=1)
+    w_data: float = Field(0.2, ge=0.0)
+    w_smooth: float = Field(0.3, ge=0.0)
+    do_refinement: bool = True
+    refinement_num: int = Field(2, ge=1)
+
+
+def cells_to_world(cells: NDArray[np.integer], costmap: Costmap2D) -> NDArray[np.float64]:
+    """``(K, 2)`` cell indices ``(mx, my)`` -> ``(K, 2)`` world cell centres [m]."""
+    c = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
+    return np.column_stack((costmap.origin_x + (c[:, 0] + 0.5) * costmap.resolution,
+                            costmap.origin_y + (c[:, 1] + 0.5) * costmap.resolution))
+
+
+def path_length(xy: NDArray[np.float64]) -> float:
+    """Sum of segment lengths of an ``(N, 2)`` polyline [m]."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) < 2:
+        return 0.0
+    return float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+
+
+def orientations(xy: NDArray[np.float64], goal_theta: float,
+                 final_approach: bool = False) -> NDArray[np.float64]:
+    """Heading of every pose: along the next segment, ``goal_theta`` at the end.
+
+    With ``final_approach`` (Nav2 ``use_final_approach_orientation``) the last pose keeps
+    the heading of the last segment instead of the goal's orientation.  Repeated points
+    take the heading of the previous pose.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    n = len(xy)
+    theta = np.full(n, float(goal_theta))
+    if n < 2:
+        return theta
+    d = np.diff(xy, axis=0)
+    seg = np.arctan2(d[:, 1], d[:, 0])
+    moving = np.hypot(d[:, 0], d[:, 1]) > 1e-12
+    # a zero-length segment inherits the previous heading (forward fill)
+    idx = np.where(moving, np.arange(n - 1), 0)
+    np.maximum.accumulate(idx, out=idx)
+    seg = np.where(moving[idx], seg[idx], goal_theta)
+    theta[:-1] = seg
+    if final_approach:
+        theta[-1] = seg[-1]
+    return theta
+
+
+def make_path(xy: NDArray[np.float64], goal_theta: float, frame_id: str,
+              final_approach: bool = False, stamp: float = 0.0) -> Path:
+    """nav_msgs ``Path`` through ``xy`` with headings along the path."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    theta = orientations(xy, goal_theta, final_approach)
+    return Path.from_array(np.column_stack((xy, theta)), frame_id=frame_id, stamp=stamp)
+
+
+@nb.njit(cache=True)
+def _segment_blocked(x0: float, y0: float, x1: float, y1: float, data: NDArray[np.uint8],
+                     ox: float, oy: float, res: float, unknown_ok: bool) -> bool:
+    """True if any cell the segment passes through is blocked (exact grid traversal,
+    Amanatides & Woo 1987)."""
+    fx0 = (x0 - ox) / res
+    fy0 = (y0 - oy) / res
+    fx1 = (x1 - ox) / res
+    fy1 = (y1 - oy) / res
+    cx = math.floor(fx0)
+    cy = math.floor(fy0)
+    ex = math.floor(fx1)
+    ey = math.floor(fy1)
+    dx = fx1 - fx0
+    dy = fy1 - fy0
+    sx = 1 if dx > 0 else -1
+    sy = 1 if dy > 0 else -1
+    inf = math.inf
+    tdx = abs(1.0 / dx) if dx != 0.0 else inf
+    tdy = abs(1.0 / dy) if dy != 0.0 else inf
+    tx = ((cx + 1 - fx0) if dx > 0 else (fx0 - cx)) * tdx if dx != 0.0 else inf
+    ty = ((cy + 1 - fy0) if dy > 0 else (fy0 - cy)) * tdy if dy != 0.0 else inf
+    n = abs(ex - cx) + abs(ey - cy)
+    for _ in range(n + 1):
+        if cx < 0 or cy < 0 or cx >= data.shape[1] or cy >= data.shape[0]:
+            return True
+        c = data[cy, cx]
+        if (c == NO_INFORMATION and not unknown_ok) or (
+                c != NO_INFORMATION and c >= INSCRIBED_INFLATED_OBSTACLE):
+            return True
+        if tx < ty:
+            cx += sx
+            tx += tdx
+        else:
+            cy += sy
+            ty += tdy
+    return False
+
+
+@nb.njit(cache=True)
+def _smooth(orig: NDArray[np.float64], data: NDArray[np.uint8], ox: float, oy: float,
+            res: float, w_data: float, w_smooth: float, tolerance: float, max_its: int,
+            unknown_ok: bool) -> tuple[NDArray[np.float64], int]:
+    out = orig.copy()
+    n = orig.shape[0]
+    its = 0
+    change = tolerance
+    while change >= tolerance and its < max_its:
+        its += 1
+        change = 0.0
+        for i in range(1, n - 1):
+            nx = out[i, 0] + w_data * (orig[i, 0] - out[i, 0]) \
+                + w_smooth * (out[i + 1, 0] + out[i - 1, 0] - 2.0 * out[i, 0])
+            ny = out[i, 1] + w_data * (orig[i, 1] - out[i, 1]) \
+                + w_smooth * (out[i + 1, 1] + out[i - 1, 1] - 2.0 * out[i, 1])
+            if _segment_blocked(out[i - 1, 0], out[i - 1, 1], nx, ny, data, ox, oy, res,
+                                unknown_ok):
+                continue
+            if _segment_blocked(nx, ny, out[i + 1, 0], out[i + 1, 1], data, ox, oy, res,
+                                unknown_ok):
+                continue
+            change += abs(nx - out[i, 0]) + abs(ny - out[i, 1])
+            out[i, 0] = nx
+            out[i, 1] = ny
+    return out, its
+
+
+def smooth_path(xy: NDArray[np.float64], costmap: Costmap2D,
+                params: SimpleSmootherParams | None = None,
+                allow_unknown: bool = False) -> NDArray[np.float64]:
+    """Smooth an ``(N, 2)`` world path, keeping it out of inscribed/lethal cells.
+
+    End points never move.  With ``do_refinement`` the smoothed path is smoothed again
+    ``refinement_num`` times, each pass anchored to the previous result (Nav2).
+    """
+    p = params or SimpleSmootherParams()
+    xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) < 3:
+        return xy.copy()
+    passes = 1 + (p.refinement_num if p.do_refinement else 0)
+    out = xy
+    for _ in range(passes):
+        out, _its = _smooth(out, costmap.data, costmap.origin_x, costmap.origin_y,
+                            costmap.resolution, p.w_data, p.w_smooth, p.tolerance,
+                            p.max_its, allow_unknown)
+    return out
