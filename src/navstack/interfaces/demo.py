@@ -56,8 +56,8 @@ class TrajectoryRecorder:
         sim.advance()
         p = sim.sim.pose
         self.rows.append((self.stack.now, p.x, p.y, p.theta))
-        radius = self.stack.footprint.circumscribed_radius
-        c = clearance(self.stack.world, p.x, p.y, self.stack.now, radius + 3.0) - radius
+        radius = sim.sim.footprint.circumscribed_radius  # the physical body
+        c = clearance(self.stack.world, p.x, p.y, sim.sim.obstacle_clocks, radius + 3.0) - radius
         self.min_clearance = min(self.min_clearance, c)
 
     def array(self) -> np.ndarray:

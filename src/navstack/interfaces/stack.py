@@ -56,7 +56,9 @@ class NavStack:
         self.runtime = rt = Runtime()
         self.world = load_world(world) if isinstance(world, str) else world
         self.robot = load_robot(robot)
-        self.footprint = self.robot.footprint_model()
+        # navigation plans with the body padded by the costmaps' footprint_padding (Nav2)
+        padding = ros_parameters(nav, "global_costmap", file=file).get("footprint_padding", 0.01)
+        self.footprint = self.robot.updated(footprint_padding=float(padding)).footprint_model()
         self.sim = SimulatorNode(rt, Simulator(self.world, self.robot, seed, spawn),
                                  physics_rate_hz, perfect_localization)
         self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())

@@ -102,6 +102,24 @@ class CostmapNode(Node):
                 return
         layer.set_map(grid, map_in_costmap)
 
+    def _track_static_maps(self) -> None:
+        """Keep static layers whose map is in another frame (a static layer in the ``odom``
+        local costmap) aligned with the latest ``global_frame <- map`` transform."""
+        for layer in self.layered.layers:
+            if (isinstance(layer, StaticLayer) and layer.map_frame
+                    and layer.map_frame != self.global_frame):
+                try:
+                    layer.map_in_costmap = self.tf.lookup_pose2d(self.global_frame,
+                                                                 layer.map_frame)
+                except TransformError as exc:
+                    self._tf_failed(exc)
+                    continue
+                layer.add_extra_bounds(*self._window_bounds())
+
+    def _window_bounds(self) -> tuple[float, float, float, float]:
+        cm = self.costmap
+        return (cm.origin_x, cm.origin_y, cm.origin_x + cm.size_x_m, cm.origin_y + cm.size_y_m)
+
     def _on_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan) -> None:
         try:
             tfs = self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
@@ -129,6 +147,7 @@ class CostmapNode(Node):
         pose = self.robot_pose()
         if pose is None:
             return
+        self._track_static_maps()
         self.layered.update_map(pose.x, pose.y, pose.theta, self.now)
         self.updates += 1
 

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from navstack.sim.world import World
+from navstack.sim.world import MovingTime, World
 
 FloatArray = NDArray[np.float64]
 
@@ -196,7 +196,7 @@ def grid_clearance(occ: NDArray[np.bool_], origin_x: float, origin_y: float,
     return min(best * resolution, max_dist)
 
 
-def footprint_collides(world: World, polygon_world: FloatArray, t: float) -> bool:
+def footprint_collides(world: World, polygon_world: FloatArray, t: MovingTime) -> bool:
     """True if the footprint polygon ``(N, 2)`` (world frame) touches an occupied cell or
     a moving obstacle at time ``t``."""
     poly = np.ascontiguousarray(polygon_world, dtype=np.float64)
@@ -210,7 +210,7 @@ def footprint_collides(world: World, polygon_world: FloatArray, t: float) -> boo
     return bool(polygon_hits_moving(poly, circles, boxes))
 
 
-def clearance(world: World, x: float, y: float, t: float, max_dist: float) -> float:
+def clearance(world: World, x: float, y: float, t: MovingTime, max_dist: float) -> float:
     """Distance [m] from ``(x, y)`` to the nearest static or moving obstacle at time
     ``t``, capped at ``max_dist``; 0 when the point is inside an obstacle."""
     if not max_dist > 0.0 or not math.isfinite(max_dist):

@@ -4,6 +4,13 @@
 construction, explicit time): :mod:`navstack.sim.node` wraps it in a lifecycle node that
 publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth``.
 
+Moving obstacles yield: each has its own clock, held still during a step in which its
+motion would bring it closer to the robot than ``yield_margin`` (0.6 m) beyond their
+bounding circles — people and forklifts stop for a robot rather than walk through it —
+and an obstacle held for ``turn_back_after`` (2 s) turns back along its path, so a
+face-off in a corridor always resolves.  The run stays deterministic (the clocks depend
+only on the simulated history).
+
 Contact model: a step whose footprint would overlap an obstacle is not taken — the robot
 stays where it was with zero velocity, as a real base stalls against a wall.  A blocked
 step counts as a new collision only when the previous blocked step is more than
@@ -38,7 +45,8 @@ class Simulator:
         self.robot = robot
         self.rng = np.random.default_rng(seed)
         self.model = make_model(robot.kinematics)
-        self.footprint = robot.footprint_model()
+        # the physical body: navigation's footprint_padding is a planning margin only
+        self.footprint = robot.updated(footprint_padding=0.0).footprint_model()
         self._fp_local = np.ascontiguousarray(self.footprint.polygon, dtype=np.float64)
         radius = self.footprint.circumscribed_radius
         self._dist = world.distance_field()
@@ -46,6 +54,11 @@ class Simulator:
         self._moving_bounds = [
             (o, radius + (o.radius if o.shape == "circle" else 0.5 * math.hypot(*o.size)) + 0.05)
             for o in world.moving_obstacles]
+        self.obstacle_clocks: tuple[float, ...] = (0.0,) * len(world.moving_obstacles)
+        self._obstacle_dir = [1.0] * len(world.moving_obstacles)
+        self._obstacle_held = [0.0] * len(world.moving_obstacles)
+        self.yield_margin = 0.6
+        self.turn_back_after = 2.0
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
@@ -99,6 +112,8 @@ class Simulator:
             self.last_rejection = str(exc)
             new = self.model.step(self.state, Twist2D(), dt)
         self.time += dt
+        if self.obstacle_clocks:
+            self._advance_obstacles(dt)
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
         if moved and self._collides(new):
             if self.time - self._last_contact_t > self.contact_release_s:
@@ -110,6 +125,25 @@ class Simulator:
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step
             self.odometry.integrate(new, dt, self.rng)
+
+    def _advance_obstacles(self, dt: float) -> None:
+        """Advance each obstacle's clock unless that step would close in on the robot."""
+        rx, ry = self.state.x, self.state.y
+        clocks = list(self.obstacle_clocks)
+        for i, (obstacle, bound) in enumerate(self._moving_bounds):
+            step = self._obstacle_dir[i] * dt
+            cx, cy, _ = obstacle.pose_at(clocks[i])
+            nx, ny, _ = obstacle.pose_at(clocks[i] + step)
+            d_next = math.hypot(nx - rx, ny - ry)
+            if d_next < bound + self.yield_margin and d_next < math.hypot(cx - rx, cy - ry):
+                self._obstacle_held[i] += dt  # hold: wait for the robot ...
+                if self._obstacle_held[i] >= self.turn_back_after:
+                    self._obstacle_dir[i] = -self._obstacle_dir[i]  # ... then turn back
+                    self._obstacle_held[i] = 0.0
+                continue
+            self._obstacle_held[i] = 0.0
+            clocks[i] += step
+        self.obstacle_clocks = tuple(clocks)
 
     def _collides(self, state: RobotState) -> bool:
         """Footprint contact at ``state``, with a cheap broad phase first.
@@ -126,14 +160,15 @@ class Simulator:
         if 0 <= row < self._dist.shape[0] and 0 <= col < self._dist.shape[1]:
             near_static = self._dist[row, col] <= self._broad_radius
         near_moving = False
-        for obstacle, bound in self._moving_bounds:
-            ox, oy, _ = obstacle.pose_at(self.time)
+        for (obstacle, bound), clock in zip(self._moving_bounds, self.obstacle_clocks,
+                                            strict=True):
+            ox, oy, _ = obstacle.pose_at(clock)
             if math.hypot(ox - state.x, oy - state.y) <= bound:
                 near_moving = True
                 break
         if not (near_static or near_moving):
             return False
-        return footprint_collides(w, self._footprint_at(state), self.time)
+        return footprint_collides(w, self._footprint_at(state), self.obstacle_clocks)
 
     def _footprint_at(self, state: RobotState) -> NDArray[np.float64]:
         """Footprint polygon in the world at ``state`` (plain numpy: runs every step)."""
@@ -152,7 +187,7 @@ class Simulator:
     def true_ranges(self) -> NDArray[np.float64]:
         assert self.lidar is not None
         lx, ly, lyaw = self.lidar_pose()
-        circles, segments = self.world.moving_at(self.time)
+        circles, segments = self.world.moving_at(self.obstacle_clocks)
         w = self.world
         return cast_rays(w.occupied, w.origin_x, w.origin_y, w.resolution, lx, ly, lyaw,
                          self.lidar.beam_angles, self.lidar.params.range_min,

@@ -26,6 +26,8 @@ from navstack.core.msgs import Header, MapMetaData, OccupancyGrid, Point, Pose, 
 from navstack.core.polygon import points_in_polygon
 
 FloatArray = NDArray[np.float64]
+MovingTime = float | tuple[float, ...]
+"""One time for all moving obstacles, or one clock per obstacle."""
 BoolArray = NDArray[np.bool_]
 ObstacleShape = Literal["circle", "box"]
 PathMode = Literal["pingpong", "loop"]
@@ -129,9 +131,9 @@ class World:
     waypoints: dict[str, Pose2D] = field(default_factory=dict)
     source: Path | None = None
     _distance: FloatArray | None = field(default=None, init=False, repr=False)
-    _moving_cache: tuple[float, FloatArray, FloatArray] | None = field(
+    _moving_cache: tuple[MovingTime, FloatArray, FloatArray] | None = field(
         default=None, init=False, repr=False)
-    _shapes_cache: tuple[float, FloatArray, FloatArray] | None = field(
+    _shapes_cache: tuple[MovingTime, FloatArray, FloatArray] | None = field(
         default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -173,7 +175,7 @@ class World:
         r, c = self.world_to_cell(x, y)
         return 0 <= r < self.height and 0 <= c < self.width
 
-    def is_free(self, x: float, y: float, t: float | None = None) -> bool:
+    def is_free(self, x: float, y: float, t: MovingTime | None = None) -> bool:
         """True if ``(x, y)`` is inside the grid, not in an occupied cell and, when ``t``
         is given, not inside a moving obstacle at time ``t``."""
         r, c = self.world_to_cell(x, y)
@@ -189,24 +191,29 @@ class World:
         return not any(points_in_polygon(pt, poly)[0] for poly in boxes)
 
     # --- moving obstacles ----------------------------------------------------------
-    def moving_shapes_at(self, t: float) -> tuple[FloatArray, FloatArray]:
+    def moving_shapes_at(self, t: MovingTime) -> tuple[FloatArray, FloatArray]:
         """``(circles (k, 3) as (cx, cy, r), boxes (b, 4, 2) corners)`` at time ``t``.
 
+        ``t`` is one time for every obstacle, or a tuple with each obstacle's own clock
+        (the simulator holds an obstacle's clock while it yields to the robot).
         Memoised for the last ``t`` (physics and sensors ask about the same instant);
         callers must not modify the arrays.
         """
         cached = self._shapes_cache
         if cached is not None and cached[0] == t:
             return cached[1], cached[2]
-        circles = [(*o.pose_at(t)[:2], o.radius) for o in self.moving_obstacles
+        obstacles = self.moving_obstacles
+        times = t if isinstance(t, tuple) else (t,) * len(obstacles)
+        circles = [(*o.pose_at(ti)[:2], o.radius) for o, ti in zip(obstacles, times, strict=True)
                    if o.shape == "circle"]
-        boxes = [o.polygon_at(t) for o in self.moving_obstacles if o.shape == "box"]
+        boxes = [o.polygon_at(ti) for o, ti in zip(obstacles, times, strict=True)
+                 if o.shape == "box"]
         out = (np.array(circles, dtype=np.float64).reshape(-1, 3),
                np.array(boxes, dtype=np.float64).reshape(-1, 4, 2))
         self._shapes_cache = (t, *out)
         return out
 
-    def moving_at(self, t: float) -> tuple[FloatArray, FloatArray]:
+    def moving_at(self, t: MovingTime) -> tuple[FloatArray, FloatArray]:
         """``(circles (k, 3) (cx, cy, r), segments (m, 4) (x1, y1, x2, y2))`` at time ``t``.
 
         Box obstacles contribute their four edges as segments (what a lidar can hit).
