@@ -4,7 +4,7 @@
 * :class:`Wavefront` / :func:`wavefront` — the ``costmap_queue`` propagation behind
   ``MapGridCritic``: cells are expanded 4-connected in order of Euclidean distance to
   the seed that reached them (FIFO among equal distances), each taking the Manhattan
-  cell distance to that seed as its value.  Lethal, inscribed and unknown cells stop
+  cell distance to that seed as its value.  Lethal and unknown cells stop
   the wave and are marked obstacle (ROS 1 robot_navigation's
   ``dwb_critics::MapGridQueue::validCellToQueue``; the ROS 2 port lets the wave pass
   through walls, which makes "unreachable" impossible); cells never reached are
@@ -21,7 +21,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.costmap.costmap_2d import (
-    INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
     NO_INFORMATION,
     Costmap2D,
@@ -130,7 +129,10 @@ def _wavefront_kernel(cost: NDArray[np.uint8], seed_x: IntArray, seed_y: IntArra
             seen[y, x] = True
             if need[y, x]:
                 remaining -= 1
-            if block and cost[y, x] >= INSCRIBED_INFLATED_OBSTACLE:
+            # stop at lethal and unknown cells only: a wave stopped at inscribed cells
+            # makes a path hugging an inflated wall "unreachable"; samples entering
+            # inscribed space are rejected by BaseObstacle anyway
+            if block and cost[y, x] >= LETHAL_OBSTACLE:
                 values[y, x] = obstacle
                 continue
             # the source is fixed when a cell is queued, so is its value
