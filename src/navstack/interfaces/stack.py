@@ -2,7 +2,8 @@
 
 Wires the data flow of ARCHITECTURE.md §2: simulator (``/scan``, ``/odom``, ``/tf``) ->
 map server (``/map``) -> global costmap (map) + planner server -> local costmap (odom) +
-controller server (``/cmd_vel``) -> behavior server -> BT navigator -> waypoint follower.
+controller server and behavior server (``/cmd_vel_nav``) -> collision monitor
+(``/cmd_vel``) -> base; BT navigator and waypoint follower orchestrate.
 Navigation parameters are a Nav2 parameter file (the packaged default is
 ``navstack/config/nav2_params.yaml``).  The robot's footprint comes from its profile and
 overrides ``robot_radius``/``footprint`` in the costmap sections.
@@ -20,6 +21,7 @@ from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
 from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
 from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
+from navstack.navigation.collision_monitor_node import CollisionMonitorNode
 from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
@@ -59,6 +61,8 @@ class NavStack:
         # navigation plans with the body padded by the costmaps' footprint_padding (Nav2)
         padding = ros_parameters(nav, "global_costmap", file=file).get("footprint_padding", 0.01)
         self.footprint = self.robot.updated(footprint_padding=float(padding)).footprint_model()
+        # recoveries check the body itself: they exist to get out of tight spots
+        self.body_footprint = self.robot.footprint_model()
         self.sim = SimulatorNode(rt, Simulator(self.world, self.robot, seed, spawn),
                                  physics_rate_hz, perfect_localization)
         self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
@@ -78,6 +82,7 @@ class NavStack:
                 ros_parameters(nav, "behavior_server", file=file), file=file,
                 key_path="behavior_server"),
             collision_checker=self.local_collision)
+        self.collision_monitor = CollisionMonitorNode(rt, self.body_footprint)
         self.navigator = BtNavigator(rt, BtNavigatorParams.from_mapping(
             ros_parameters(nav, "bt_navigator", file=file), file=file, key_path="bt_navigator"))
         self.waypoint_follower = WaypointFollower(rt, WaypointFollowerParams.from_mapping(
@@ -90,9 +95,10 @@ class NavStack:
         self.local_costmap.update()
 
     def local_collision(self, pose_odom: Pose2D) -> bool:
-        """True if the footprint at ``pose_odom`` touches a lethal cell of the local costmap."""
+        """True if the robot body at ``pose_odom`` touches a lethal cell of the local
+        costmap (the behaviors' collision check; the planning padding is not applied)."""
         cost = footprint_cost(self.local_costmap.costmap,
-                              (pose_odom.x, pose_odom.y, pose_odom.theta), self.footprint)
+                              (pose_odom.x, pose_odom.y, pose_odom.theta), self.body_footprint)
         return cost == LETHAL_OBSTACLE
 
     @property
