@@ -63,8 +63,12 @@ class ApproachMonitor:
                 s, c = math.sin(th), math.cos(th)
                 x = (cmd.vx * s + cmd.vy * (c - 1.0)) / cmd.wz
                 y = (cmd.vx * (1.0 - c) + cmd.vy * s) / cmd.wz
-            cs, sn = math.cos(th), math.sin(th)
             dx, dy = pts[:, 0] - x, pts[:, 1] - y
+            near = dx * dx + dy * dy <= self.radius * self.radius  # broad phase
+            if int(np.count_nonzero(near)) < p.min_points:
+                continue
+            cs, sn = math.cos(th), math.sin(th)
+            dx, dy = dx[near], dy[near]
             local = np.column_stack((cs * dx + sn * dy, -sn * dx + cs * dy))
             if int(np.count_nonzero(points_in_polygon(local, self.footprint))) >= p.min_points:
                 return float(t)

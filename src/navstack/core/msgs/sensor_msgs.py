@@ -149,24 +149,35 @@ class OccupancyGrid:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Path:
-    """nav_msgs/Path: a sequence of stamped poses in ``header.frame_id``."""
+    """nav_msgs/Path: a sequence of stamped poses in ``header.frame_id``.
+
+    The ``(N, 3)`` (x, y, theta) array view is computed once and cached (controllers ask
+    for it every cycle); a Path is immutable, so the cache never goes stale.
+    """
 
     header: Header = field(default_factory=Header)
     poses: tuple[PoseStamped, ...] = ()
+    _xyt: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
     @staticmethod
     def from_array(xyt: NDArray[np.float64], frame_id: str = "map", stamp: float = 0.0) -> Path:
         """Build from an ``(N, 3)`` array of (x, y, theta)."""
         h = Header(stamp, frame_id)
+        arr = np.array(xyt, dtype=np.float64).reshape(-1, 3)
+        arr.setflags(write=False)
         return Path(h, tuple(PoseStamped(h, Pose2D(float(r[0]), float(r[1]), float(r[2])).to_pose())
-                             for r in np.asarray(xyt)))
+                             for r in arr), arr)
 
     def as_array(self) -> NDArray[np.float64]:
-        """``(N, 3)`` array of (x, y, theta)."""
-        if not self.poses:
-            return np.zeros((0, 3))
-        return np.array([[p.pose.position.x, p.pose.position.y, p.pose.orientation.yaw]
-                         for p in self.poses])
+        """``(N, 3)`` array of (x, y, theta) (read-only; copy before modifying)."""
+        if self._xyt is None:
+            arr = (np.zeros((0, 3)) if not self.poses else
+                   np.array([[p.pose.position.x, p.pose.position.y, p.pose.orientation.yaw]
+                             for p in self.poses]))
+            arr.setflags(write=False)
+            object.__setattr__(self, "_xyt", arr)
+        assert self._xyt is not None
+        return self._xyt
 
     def length(self) -> float:
         xy = self.as_array()[:, :2]
