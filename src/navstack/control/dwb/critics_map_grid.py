@@ -33,8 +33,14 @@ from navstack.control.dwb.critic_base import (
 from navstack.control.dwb.grid import Wavefront, adjust_plan_resolution, world_to_cells
 from navstack.control.dwb.params import DWBParams
 from navstack.control.dwb.trajectory_generator import TrajectoryBatch
+from navstack.core.msgs import Pose2D
 from navstack.core.polygon import Footprint
-from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION, Costmap2D
+from navstack.costmap.costmap_2d import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+    Costmap2D,
+)
 
 IntArray = NDArray[np.int64]
 
@@ -92,6 +98,15 @@ def _plan_run_cells(plan: FloatArray, costmap: Costmap2D) -> tuple[IntArray, Int
     return mx[start:end], my[start:end]
 
 
+def blocking_cost(costmap: Costmap2D, pose: Pose2D) -> int:
+    """Lowest cost that blocks a trajectory cell: INSCRIBED, or LETHAL while the robot
+    starts the cycle inside the inscribed band (so it may drive out; see BaseObstacle)."""
+    here = costmap.world_to_map(pose.x, pose.y)
+    if here is not None and costmap.data[here[1], here[0]] == INSCRIBED_INFLATED_OBSTACLE:
+        return LETHAL_OBSTACLE
+    return INSCRIBED_INFLATED_OBSTACLE
+
+
 class MapGridCritic(TrajectoryCritic[G]):
     """Scores trajectories with a per-cycle distance map (``MapGridCritic``).
 
@@ -147,7 +162,7 @@ class MapGridCritic(TrajectoryCritic[G]):
             self._set_values(ctx, np.zeros(0, np.int64), np.zeros(0, np.int64))
         assert self.values is not None
         mx, my, inside = self._cells(batch, ctx.costmap)
-        blocked = ctx.costmap.data[my, mx] >= INSCRIBED_INFLATED_OBSTACLE
+        blocked = ctx.costmap.data[my, mx] >= blocking_cost(ctx.costmap, ctx.pose)
         vals = np.where(blocked, self.obstacle_score, self.values[my, mx])
         codes = np.where(inside, 0, 1)
         if self.stop_on_failure:

@@ -20,12 +20,13 @@ from navstack.control.dwb.critic_base import (
     register_critic,
     reject_scores,
 )
+from navstack.control.dwb.critics_map_grid import blocking_cost
 from navstack.control.dwb.grid import footprint_costs
 from navstack.control.dwb.params import DWBParams
 from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.errors import ConfigError
 from navstack.core.polygon import Footprint
-from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from navstack.costmap.costmap_2d import NO_INFORMATION
 
 
 class ObstacleParams(CriticParams):
@@ -45,7 +46,11 @@ def _aggregate(costs: FloatArray, batch: TrajectoryBatch, sum_scores: bool) -> F
 class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
     """Cost of the cells under the robot centre; lethal, inscribed or unknown rejects.
 
-    Nav2 default scale in ``nav2_params.yaml``: 0.02.
+    Nav2 default scale in ``nav2_params.yaml``: 0.02.  One navstack departure: when the
+    robot *starts* the cycle in an inscribed (not lethal) cell — a person stepped up to
+    it, or the costmap shifted by a cell — inscribed cells do not reject, so the robot
+    can drive out; Nav2 rejects every sample there and the robot stays stuck until a
+    recovery moves it.  Lethal cells always reject.
     """
 
     params_model = ObstacleParams
@@ -53,11 +58,12 @@ class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
     default_scale = 0.02
 
     def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
-        mx, my, inside = batch_cells(batch, ctx.costmap)
-        cost = ctx.costmap.data[my, mx]
+        cm = ctx.costmap
+        mx, my, inside = batch_cells(batch, cm)
+        cost = cm.data[my, mx]
+        limit = blocking_cost(cm, ctx.pose)  # escaping the inscribed band is allowed
         codes = np.where(~inside, 1,
-                         np.where(cost == NO_INFORMATION, 3,
-                                  np.where(cost >= INSCRIBED_INFLATED_OBSTACLE, 2, 0)))
+                         np.where(cost == NO_INFORMATION, 3, np.where(cost >= limit, 2, 0)))
         scores = _aggregate(cost.astype(np.float64), batch, self.params.sum_scores)
         return reject_scores(scores, first_failure(codes))
 
