@@ -7,7 +7,7 @@ publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_trut
 Moving obstacles yield: each has its own clock, held still during a step in which its
 motion would bring it closer to the robot than ``yield_margin`` (0.6 m) beyond their
 bounding circles — people and forklifts stop for a robot rather than walk through it —
-and an obstacle held for ``turn_back_after`` (2 s) turns back along its path, so a
+and an obstacle held for ``turn_back_after`` (4 s) turns back along its path, so a
 face-off in a corridor always resolves.  The run stays deterministic (the clocks depend
 only on the simulated history).
 
@@ -58,7 +58,7 @@ class Simulator:
         self._obstacle_dir = [1.0] * len(world.moving_obstacles)
         self._obstacle_held = [0.0] * len(world.moving_obstacles)
         self.yield_margin = 0.6
-        self.turn_back_after = 2.0
+        self.turn_back_after = 4.0
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
