@@ -184,7 +184,15 @@ class ControllerServer(Node):
             self._abort(ControllerErrorCode.TF_ERROR,
                         f"cannot locate the robot or the plan: {exc}")
             return
-        goal_pose = Pose2D.from_array(path.as_array()[-1])
+        # the goal check always uses the current transform (the cached plan may lag a cell)
+        goal_pose = Pose2D.from_array(goal.path.as_array()[-1])
+        src = goal.path.header.frame_id or frame
+        if src != frame:
+            try:
+                goal_pose = self.tf.lookup_pose2d(frame, src).compose(goal_pose)
+            except TransformError as exc:
+                self._abort(ControllerErrorCode.TF_ERROR, f"cannot locate the goal: {exc}")
+                return
         checker = self.goal_checkers[goal.goal_checker_id or next(iter(self.goal_checkers))]
         if checker.is_goal_reached(pose, goal_pose, self._velocity):
             self._stop()
