@@ -43,6 +43,8 @@ class SimulatorNode(Node):
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
+        self.clock_period = 0.1  # /clock for recorders; in-process nodes use the scheduler
+        self._last_clock_t = -1.0
         self.map_odom_period = 0.1
         self.map_odom_tolerance = 0.1
         self._next_map_odom_t = 0.0
@@ -96,7 +98,9 @@ class SimulatorNode(Node):
             return
         while sim.time < now - 1e-9:
             sim.step(min(dt, now - sim.time))
-        self.pub_clock.publish(Clock(now))
+        if now - self._last_clock_t >= self.clock_period - 1e-9:
+            self._last_clock_t = now
+            self.pub_clock.publish(Clock(now))
 
     def _on_cmd(self, msg: Twist) -> None:
         self.advance()

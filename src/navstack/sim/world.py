@@ -27,6 +27,8 @@ from navstack.core.polygon import points_in_polygon
 
 FloatArray = NDArray[np.float64]
 MovingTime = float | tuple[float, ...]
+_NO_SEGMENTS: FloatArray = np.zeros((0, 4))
+_NO_SEGMENTS.setflags(write=False)
 """One time for all moving obstacles, or one clock per obstacle."""
 BoolArray = NDArray[np.bool_]
 ObstacleShape = Literal["circle", "box"]
@@ -224,7 +226,10 @@ class World:
         if cached is not None and cached[0] == t:
             return cached[1], cached[2]
         circles, boxes = self.moving_shapes_at(t)
-        segs = np.concatenate((boxes, np.roll(boxes, -1, axis=1)), axis=2).reshape(-1, 4)
+        if len(boxes):
+            segs = np.concatenate((boxes, np.roll(boxes, -1, axis=1)), axis=2).reshape(-1, 4)
+        else:
+            segs = _NO_SEGMENTS
         self._moving_cache = (t, circles, segs)
         return circles, segs
 
