@@ -28,10 +28,9 @@ from navstack.core.msgs import (
 from navstack.core.tf import (
     FrameConflictError,
     TransformTree,
-    check_chain,
-    find_jumps,
     transform_pose2d,
 )
+from navstack.core.tf_checks import check_chain, find_jumps
 
 
 def ts(parent: str, child: str, t: float, x: float = 0.0, y: float = 0.0, yaw: float = 0.0,

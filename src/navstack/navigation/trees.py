@@ -56,17 +56,19 @@ from navstack.navigation.bt_composites import (
     RecoveryNode,
     RoundRobin,
 )
-from navstack.navigation.bt_nodes import (
-    BackUp,
+from navstack.navigation.bt_conditions import (
     ClearEntireCostmap,
-    ComputePathThroughPoses,
-    ComputePathToPose,
     CountRecovery,
-    FollowPath,
     GlobalUpdatedGoal,
     GoalUpdated,
     IsPathValid,
     RemovePassedGoals,
+)
+from navstack.navigation.bt_nodes import (
+    BackUp,
+    ComputePathThroughPoses,
+    ComputePathToPose,
+    FollowPath,
     Spin,
     TreeContext,
     Wait,
