@@ -102,3 +102,12 @@ def test_nav2_layout_errors(tmp_path: Path) -> None:
                        required=True)
     assert str(e.value) == ("nav2.yaml: controller_server: no parameters for 'controller_server' "
                             "(did you mean 'controler_server'?)")
+
+
+def test_plugin_section_must_be_a_mapping() -> None:
+    from navstack.navigation.plugins import plugin_section
+
+    with pytest.raises(ConfigError) as e:
+        plugin_section({"FollowPath": "dwb"}, "FollowPath", "dwb_core::DWBLocalPlanner",
+                       file="nav2.yaml", key_path="controller_server")
+    assert str(e.value) == "nav2.yaml: controller_server.FollowPath: must be a mapping, got str"

@@ -60,10 +60,12 @@ def load_class(registry: PluginRegistry[str], plugin: str, *, file: str = "",
 def plugin_section(server_params: Mapping[str, Any], name: str, default_plugin: str, *,
                    file: str = "", key_path: str = "") -> tuple[str, dict[str, Any]]:
     """``(plugin string, params without 'plugin')`` of a named plugin section."""
-    section = dict(server_params.get(name) or {})
+    raw = server_params.get(name) or {}
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"must be a mapping, got {type(raw).__name__}", file=file,
+                          key_path=f"{key_path}.{name}")
+    section = dict(raw)
     plugin = str(section.pop("plugin", default_plugin))
-    if not isinstance(server_params.get(name, {}), Mapping):
-        raise ConfigError("must be a mapping", file=file, key_path=f"{key_path}.{name}")
     return plugin, section
 
 
