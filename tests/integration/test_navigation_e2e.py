@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -117,3 +118,26 @@ def test_nan_goal_is_refused() -> None:
     assert not nav.goToPose(_goal(float("nan"), 1.0))
     assert nav.last_error.startswith("goal pose contains NaN or inf")
     assert np.isfinite(nav.robot_pose().x)
+
+
+def test_stack_file_builds_the_running_graph(tmp_path: Path) -> None:
+    from navstack.core.errors import ConfigError
+
+    folder = tmp_path
+    stack_file = folder / "stack.yaml"
+    stack_file.write_text("name: lab\nseed: 3\nrobot: turtlebot\n"
+                          "world: {name: office, spawn: [2.0, 7.5, 0.0]}\n")
+    stack = NavStack.from_stack_file(stack_file)
+    assert stack.robot.name == "turtlebot"
+    assert stack.sim.sim.pose == Pose2D(2.0, 7.5, 0.0)
+    assert {"simulator", "planner_server", "controller_server", "bt_navigator"} <= set(
+        stack.runtime.nodes)
+    nav = Navigator(stack)
+    assert nav.goToPose(_goal(3.5, 7.5))
+    _run(nav, 60.0)
+    assert nav.getResult() is TaskResult.SUCCEEDED
+    bad = folder / "bad.yaml"
+    bad.write_text("world: {name: office, spwan: [1, 1, 0]}\n")
+    with pytest.raises(ConfigError) as e:
+        NavStack.from_stack_file(bad)
+    assert str(e.value) == f"{bad}: world.spwan: unknown key (did you mean 'spawn'?)"

@@ -27,10 +27,10 @@ from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
 from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
-from navstack.runtime.config import load_yaml, ros_parameters
+from navstack.runtime.config import load_stack, load_yaml, ros_parameters
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
-from navstack.sim.robot import load_robot
+from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
 from navstack.sim.simulator import Simulator
 from navstack.sim.world import World
 from navstack.sim.worlds import load_world
@@ -43,7 +43,7 @@ def default_nav2_params_path() -> Path:
 class NavStack:
     """Simulator + Nav2-equivalent servers, configured and active, in one ``Runtime``."""
 
-    def __init__(self, world: str | World = "office", robot: str = "diff_drive",
+    def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
                  nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
                  spawn: Pose2D | None = None, perfect_localization: bool = True,
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None) -> None:
@@ -57,7 +57,7 @@ class NavStack:
         self.nav2_params = nav
         self.runtime = rt = Runtime()
         self.world = load_world(world) if isinstance(world, str) else world
-        self.robot = load_robot(robot)
+        self.robot = load_robot(robot) if isinstance(robot, str) else robot
         # navigation plans with the body padded by the costmaps' footprint_padding (Nav2)
         padding = ros_parameters(nav, "global_costmap", file=file).get("footprint_padding", 0.01)
         self.footprint = self.robot.updated(footprint_padding=float(padding)).footprint_model()
@@ -93,6 +93,22 @@ class NavStack:
         rt.scheduler.run_until(0.0)
         self.global_costmap.update()
         self.local_costmap.update()
+
+    @classmethod
+    def from_stack_file(cls, path: str | Path) -> NavStack:
+        """Build the running graph a stack YAML describes (robot, world, seed, Nav2 params).
+
+        ``robot`` may name a profile or be an inline profile mapping; ``navigation`` is a
+        Nav2 parameter file (relative to the stack file) or inline Nav2 layout, and the
+        packaged defaults are used when it is empty.  Errors name the file and key path.
+        """
+        cfg = load_stack(path)
+        robot = (load_robot(cfg.robot) if isinstance(cfg.robot, str)
+                 else robot_from_mapping(cfg.robot, file=str(path)))
+        nav = cfg.navigation_params() or None
+        spawn = Pose2D(*cfg.world.spawn) if cfg.world.spawn is not None else None
+        return cls(cfg.world.name, robot, nav, cfg.seed, spawn,
+                   cfg.world.perfect_localization, cfg.sim.physics_rate_hz)
 
     def local_collision(self, pose_odom: Pose2D) -> bool:
         """True if the robot body at ``pose_odom`` touches a lethal cell of the local
