@@ -1,0 +1,115 @@
+"""SLAM parameters, named and defaulted as slam_toolbox's ``mapper_params_*.yaml``.
+
+A slam_toolbox parameter file (``slam_toolbox: ros__parameters: ...``) loads unchanged.
+Two knobs keep slam_toolbox's name but not its default, for the reasons given:
+
+* ``correlation_search_space_resolution`` 0.02 m (slam_toolbox 0.01): the correlative
+  search only has to land in the right cell; a Gauss-Newton refinement on the smeared
+  grid then gives sub-cell accuracy (docs/decisions.md, "SLAM matcher"), and a 0.02 m grid
+  is four times cheaper to build.
+* ``correlation_search_space_smear_deviation`` 0.05 m (slam_toolbox 0.1): measured on
+  the Intel log, 0.1 blurs the walls enough to raise the relative pose error by 30%.
+
+The Ceres solver keys are accepted so slam_toolbox files load; the back end is gtsam
+(:mod:`navstack.mapping.pose_graph`), so they have no effect, and
+:func:`unused_solver_keys` lists them for a log line.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from navstack.core.params import Params
+
+__all__ = ["SlamParams", "unused_solver_keys"]
+
+_CERES_KEYS = ("solver_plugin", "ceres_linear_solver", "ceres_preconditioner",
+               "ceres_trust_strategy", "ceres_dogleg_type", "ceres_loss_function")
+
+
+class SlamParams(Params):
+    """slam_toolbox parameters (names from ``slam_toolbox/config/mapper_params_online_*``)."""
+
+    # --- toolbox / ROS side ---
+    mode: Literal["mapping", "localization"] = "mapping"
+    odom_frame: str = "odom"
+    map_frame: str = "map"
+    base_frame: str = "base_link"
+    scan_topic: str = "/scan"
+    use_map_saver: bool = True
+    map_file_name: str = ""
+    map_start_pose: list[float] | None = None
+    map_start_at_dock: bool | None = None
+    debug_logging: bool = False
+    throttle_scans: int = Field(1, ge=1)
+    transform_publish_period: float = Field(0.02, ge=0.0)
+    map_update_interval: float = Field(5.0, gt=0.0)
+    resolution: float = Field(0.05, gt=0.0)
+    min_laser_range: float = Field(0.0, ge=0.0)
+    max_laser_range: float = Field(20.0, gt=0.0)
+    minimum_time_interval: float = Field(0.5, ge=0.0)
+    transform_timeout: float = Field(0.2, ge=0.0)
+    tf_buffer_duration: float = Field(30.0, gt=0.0)
+    stack_size_to_use: int = 40000000
+    enable_interactive_mode: bool = True
+    scan_queue_size: int = Field(1, ge=1)
+    use_sim_time: bool = True
+    # synchronous: every accepted scan is processed; asynchronous: only the newest scan is
+    # processed when the mapper is free (slam_toolbox's sync / async nodes)
+    synchronous: bool = True
+
+    # --- Karto matcher ---
+    use_scan_matching: bool = True
+    use_scan_barycenter: bool = True
+    # navstack: polish every match with point-to-line ICP (mapping/icp.py)
+    use_point_to_line_refinement: bool = True
+    minimum_travel_distance: float = Field(0.5, ge=0.0)
+    minimum_travel_heading: float = Field(0.5, ge=0.0)
+    scan_buffer_size: int = Field(10, ge=1)
+    scan_buffer_maximum_scan_distance: float = Field(10.0, gt=0.0)
+    link_match_minimum_response_fine: float = Field(0.1, ge=0.0, le=1.0)
+    link_scan_maximum_distance: float = Field(1.5, ge=0.0)
+    loop_search_maximum_distance: float = Field(3.0, ge=0.0)
+    do_loop_closing: bool = True
+    loop_match_minimum_chain_size: int = Field(10, ge=1)
+    loop_match_maximum_variance_coarse: float = Field(3.0, gt=0.0)
+    loop_match_minimum_response_coarse: float = Field(0.35, ge=0.0, le=1.0)
+    loop_match_minimum_response_fine: float = Field(0.45, ge=0.0, le=1.0)
+    correlation_search_space_dimension: float = Field(0.5, gt=0.0)
+    correlation_search_space_resolution: float = Field(0.02, gt=0.0)
+    correlation_search_space_smear_deviation: float = Field(0.05, gt=0.0)
+    loop_search_space_dimension: float = Field(8.0, gt=0.0)
+    loop_search_space_resolution: float = Field(0.05, gt=0.0)
+    loop_search_space_smear_deviation: float = Field(0.03, gt=0.0)
+    distance_variance_penalty: float = Field(0.5, gt=0.0)
+    angle_variance_penalty: float = Field(1.0, gt=0.0)
+    fine_search_angle_offset: float = Field(0.00349, gt=0.0)
+    coarse_search_angle_offset: float = Field(0.349, ge=0.0)
+    coarse_angle_resolution: float = Field(0.0349, gt=0.0)
+    minimum_angle_penalty: float = Field(0.9, ge=0.0, le=1.0)
+    minimum_distance_penalty: float = Field(0.5, ge=0.0, le=1.0)
+    use_response_expansion: bool = True
+    # navstack: uniqueness test of loop closures (not in slam_toolbox; see slam.py)
+    loop_match_maximum_ambiguity: float = Field(0.8, gt=0.0, le=1.0)
+    loop_match_ambiguity_distance: float = Field(0.5, gt=0.0)
+    # navstack: a closure may not correct more than base + rate * path length since the
+    # matched scan (scan-matched odometry drifts < 1% on the CARMEN logs), and loop edges
+    # carry a Cauchy kernel of this many sigmas (0 = none)
+    loop_match_maximum_drift_base: float = Field(0.3, gt=0.0)
+    loop_match_maximum_drift_rate: float = Field(0.05, ge=0.0)
+    loop_closure_robust_kernel: float = Field(1.0, ge=0.0)
+
+    # --- solver (accepted for slam_toolbox files; the back end is gtsam) ---
+    solver_plugin: str = "solver_plugins::CeresSolver"
+    ceres_linear_solver: str = "SPARSE_NORMAL_CHOLESKY"
+    ceres_preconditioner: str = "SCHUR_JACOBI"
+    ceres_trust_strategy: str = "LEVENBERG_MARQUARDT"
+    ceres_dogleg_type: str = "TRADITIONAL_DOGLEG"
+    ceres_loss_function: str = "None"
+
+
+def unused_solver_keys(params: SlamParams) -> list[str]:
+    """The Ceres keys the user set explicitly (they have no effect with gtsam)."""
+    return [key for key in _CERES_KEYS if key in params.model_fields_set]
