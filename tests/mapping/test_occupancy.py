@@ -14,6 +14,7 @@ from navstack.core.errors import ConfigError, InvalidMessage
 from navstack.core.map_files import load_map
 from navstack.core.msgs import Header, LaserScan
 from navstack.mapping.occupancy import (
+    HIT_DEPTH,
     L_FREE_DEFAULT,
     L_OCC_DEFAULT,
     LogOddsGrid,
@@ -174,8 +175,9 @@ def test_scan_endpoints_range_semantics() -> None:
     # return clipped to 5 m; dropped: NaN, -inf, below range_min
     np.testing.assert_array_equal(hits, [True, False, False, False, False])
     dist = np.hypot(ends[:, 0] - 1.0, ends[:, 1] - 2.0)
-    np.testing.assert_allclose(dist, [3.0, 5.0, 5.0, 5.0, 5.0])
-    np.testing.assert_allclose(ends[0], [1.0, 5.0], atol=1e-12)
+    # a return is marked HIT_DEPTH (1 mm) inside the surface it hit
+    np.testing.assert_allclose(dist, [3.0 + HIT_DEPTH, 5.0, 5.0, 5.0, 5.0])
+    np.testing.assert_allclose(ends[0], [1.0, 5.0 + HIT_DEPTH], atol=1e-12)
     np.testing.assert_allclose(ends[3], [6.0, 2.0], atol=1e-12)
     ends2, hits2 = scan_endpoints(pose, ranges, angles, 0.1, 10.0, 5.0, clear_no_returns=False)
     np.testing.assert_array_equal(hits2, [True, False])

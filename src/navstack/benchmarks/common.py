@@ -20,6 +20,8 @@ class BenchResult:
     metrics: dict[str, float] = field(default_factory=dict)
     cases: list[dict[str, Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: print ``cases`` as a table too (suites whose rows are the result, e.g. a sweep)
+    show_cases: bool = False
 
     def to_json(self) -> dict[str, Any]:
         return {"suite": self.suite, "machine": machine_info(), "metrics": self.metrics,

@@ -14,6 +14,8 @@ SUITE_MODULES: dict[str, str] = {
     "planners": "navstack.benchmarks.planners",
     "costmap": "navstack.benchmarks.costmap",
     "navigation": "navstack.benchmarks.navigation",
+    "slam": "navstack.benchmarks.slam",
+    "slam-params": "navstack.benchmarks.slam_params",
 }
 
 

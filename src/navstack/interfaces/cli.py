@@ -120,6 +120,60 @@ def demo(
 
 
 @app.command()
+def slam(
+    carmen: Annotated[Path, typer.Option(help="CARMEN log (plain text or .gz).")],
+    out: Annotated[Path, typer.Option(help="Folder for map.yaml/.pgm/.png, trajectory.csv, "
+                                      "map.posegraph, graph.g2o and summary.json.")],
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the summary here.")]
+    = None,
+    params: Annotated[Path | None, typer.Option(
+        help="slam_toolbox parameter YAML (slam_toolbox: ros__parameters: ...), applied "
+             "over the log profile.")] = None,
+    max_scans: Annotated[int | None, typer.Option(min=1, help="Stop after N scans.")] = None,
+) -> None:
+    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its error (RPE)."""
+    from navstack.mapping.offline import run_carmen, summary, write_outputs
+    from navstack.runtime.config import load_yaml, ros_parameters
+
+    try:
+        overrides = None
+        if params is not None:
+            overrides = ros_parameters(load_yaml(params), "slam_toolbox", file=str(params),
+                                       required=True)
+        result = run_carmen(carmen, overrides, max_scans=max_scans,
+                            params_file=str(params) if params is not None else "")
+        files = write_outputs(result, out)
+    except (NavstackError, OSError) as exc:
+        raise _fail(str(exc)) from None
+    report = summary(result, files)
+    skipped = report["skipped_lines"]
+    if skipped["count"]:
+        shown = "; ".join(f"line {s['line']}: {s['reason']}" for s in skipped["first"])
+        more = ", ..." if skipped["count"] > len(skipped["first"]) else ""
+        typer.echo(f"warning: {skipped['count']} log line(s) skipped ({shown}{more})", err=True)
+    stats = result.mapper.stats
+    typer.echo(f"{result.scans} scans processed ({len(result.mapper.nodes)} nodes), "
+               f"{stats.loop_closures} loop closures, {stats.match_failures} match failures")
+    if result.rpe is not None:
+        r = result.rpe
+        line = (f"RPE over {r.pairs} consecutive pairs vs the corrected poses: trans "
+                f"{r.trans_mean_m:.4f} ± {r.trans_std_m:.4f} m, rot {r.rot_mean_deg:.3f} ± "
+                f"{r.rot_std_deg:.3f} deg")
+        if result.odometry_rpe is not None:
+            o = result.odometry_rpe
+            line += f" (odometry alone: {o.trans_mean_m:.4f} m, {o.rot_mean_deg:.3f} deg)"
+        typer.echo(line)
+    else:
+        typer.echo("RPE: not scored (the log has no corrected reference poses)")
+    speed = (f"speedup {result.speedup:.0f}x over the log's {result.log_duration_s:.0f} s"
+             if result.speedup is not None and result.log_duration_s is not None
+             else "speedup unknown (log timestamps too coarse)")
+    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median), {result.wall_s:.2f} s wall, {speed}")
+    typer.echo(f"wrote {', '.join(Path(p).name for p in files.values())} to {out}")
+    _write_json(json_out, report)
+
+
+@app.command()
 def bench(
     suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
     quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,
@@ -146,6 +200,14 @@ def bench(
     for key, value in result.metrics.items():
         table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
     Console().print(table)
+    if result.show_cases and result.cases:
+        rows = Table(title=f"{suite}: runs")
+        columns = list(result.cases[0])
+        for column in columns:
+            rows.add_column(column, justify="left" if column == "parameter" else "right")
+        for case in result.cases:
+            rows.add_row(*(f"{case.get(c, '')}" for c in columns))
+        Console().print(rows)
     for note in result.notes:
         typer.echo(f"note: {note}")
     _write_json(json_out, result.to_json())

@@ -19,6 +19,8 @@ from typing import Any
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
+from navstack.mapping.slam_node import SlamNode
+from navstack.mapping.slam_params import SlamParams
 from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
 from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
 from navstack.navigation.collision_monitor_node import CollisionMonitorNode
@@ -46,9 +48,16 @@ class NavStack:
     def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
                  nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
                  spawn: Pose2D | None = None, perfect_localization: bool = True,
-                 physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None) -> None:
+                 physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
+                 slam: bool | SlamParams | Mapping[str, Any] = False) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
-        the map given to navigation (default: the world's true static map)."""
+        the map given to navigation (default: the world's true static map).
+
+        ``slam``: map while navigating instead -- a :class:`SlamNode` (slam_toolbox
+        parameters, ``True`` for the defaults) builds ``/map`` and publishes
+        ``map -> odom``; there is no map server and no perfect localization.  The SLAM map
+        frame starts at the spawn pose (slam_toolbox ``map_start_pose``), so goals keep
+        the world's coordinates."""
         if nav2_params is None or isinstance(nav2_params, str | Path):
             path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
             nav, file = load_yaml(path), str(path)
@@ -63,9 +72,25 @@ class NavStack:
         self.footprint = self.robot.updated(footprint_padding=float(padding)).footprint_model()
         # recoveries check the body itself: they exist to get out of tight spots
         self.body_footprint = self.robot.footprint_model()
-        self.sim = SimulatorNode(rt, Simulator(self.world, self.robot, seed, spawn),
-                                 physics_rate_hz, perfect_localization)
-        self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
+        simulator = Simulator(self.world, self.robot, seed, spawn)
+        self.slam: SlamNode | None = None
+        self.map_server: MapServer | None = None
+        if slam is False:
+            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, perfect_localization)
+            self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
+        else:
+            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, False)
+            start = simulator.pose
+            xmin, ymin, xmax, ymax = self.world.bounds
+            overrides = {"map_start_pose": [start.x, start.y, start.theta],
+                         "map_minimum_extent": [xmin, ymin, xmax, ymax]}
+            if isinstance(slam, SlamParams):
+                slam_params = slam.updated(**overrides)
+            else:
+                given = {} if slam is True else dict(slam)
+                slam_params = SlamParams.from_mapping({**overrides, **given},
+                                                      key_path="slam_toolbox")
+            self.slam = SlamNode(rt, slam_params)
         self.global_costmap = CostmapNode(rt, "global_costmap",
                                           ros_parameters(nav, "global_costmap", file=file),
                                           self.footprint, file)

@@ -65,6 +65,9 @@ L_OCC_DEFAULT = logit(0.7)
 L_FREE_DEFAULT = logit(0.4)
 
 
+HIT_DEPTH = 1e-3  # [m] see scan_endpoints
+
+
 class MappingError(NavstackError, ValueError):
     """The occupancy mapper was given something it cannot use."""
 
@@ -122,7 +125,10 @@ def scan_endpoints(pose: ArrayLike, ranges: ArrayLike, angles: ArrayLike, range_
     usable = min(float(max_usable_range), float(range_max))
     ret = (r >= range_min) & (r < range_max)  # NaN and -inf fail both tests
     hit = ret & (r <= max_usable_range)
-    length = np.where(hit, r, usable)
+    # a return lies on the obstacle's surface; 1 mm further along the beam is inside it,
+    # so a surface exactly on a cell border (simulated worlds are rasters) marks the
+    # obstacle's cell, not the free cell in front of it
+    length = np.where(hit, r + HIT_DEPTH, usable)
     keep = ret | (r >= range_max) if clear_no_returns and math.isfinite(usable) else ret
     length, hit, a = length[keep], hit[keep], a[keep]
     theta = a + p[2]

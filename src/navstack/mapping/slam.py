@@ -63,7 +63,8 @@ class LaserGeometry:
 
     @classmethod
     def uniform(cls, angle_min: float, angle_increment: float, count: int, range_min: float,
-                range_max: float, mount: Sequence[float] = (0.0, 0.0, 0.0)) -> LaserGeometry:
+                range_max: float,
+                mount: Sequence[float] | FloatArray = (0.0, 0.0, 0.0)) -> LaserGeometry:
         angles = (angle_min + angle_increment * np.arange(count)).astype(np.float64)
         return cls(angles, float(range_min), float(range_max), np.asarray(mount, float))
 
@@ -213,7 +214,7 @@ class SlamMapper:
                     and abs(delta[2]) < p.minimum_travel_heading)
 
     # --- main entry ------------------------------------------------------------------
-    def process_scan(self, ranges: NDArray[np.floating], odom_pose: Sequence[float],
+    def process_scan(self, ranges: NDArray[np.floating], odom_pose: Sequence[float] | FloatArray,
                      stamp: float) -> bool:
         """Add a scan taken at ``odom_pose`` (odom frame); True when it became a node."""
         self.stats.scans_received += 1

@@ -42,6 +42,9 @@ class SlamParams(Params):
     map_file_name: str = ""
     map_start_pose: list[float] | None = None
     map_start_at_dock: bool | None = None
+    # navstack: the published map covers at least [xmin, ymin, xmax, ymax] (unknown where
+    # unseen) so that goals in unexplored space lie inside the costmap (slam_node.py)
+    map_minimum_extent: list[float] | None = None
     debug_logging: bool = False
     throttle_scans: int = Field(1, ge=1)
     transform_publish_period: float = Field(0.02, ge=0.0)
