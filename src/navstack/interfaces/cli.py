@@ -207,7 +207,7 @@ def bench(
             rows.add_column(column, justify="left" if column == "parameter" else "right")
         for case in result.cases:
             rows.add_row(*(f"{case.get(c, '')}" for c in columns))
-        Console().print(rows)
+        Console(width=200).print(rows)
     for note in result.notes:
         typer.echo(f"note: {note}")
     _write_json(json_out, result.to_json())

@@ -103,6 +103,18 @@ def _smear_kernel(radius: int, resolution: float, sigma: float,
     return kernel, int(offsets[0])
 
 
+def _distinct_cells(cells: NDArray[np.int64], height: int, width: int,
+                    reach: int) -> NDArray[np.int64]:
+    """The distinct cells whose stamp (``reach`` cells wide) can touch the grid: one
+    stamp per cell, found with a 1-D ``unique`` (a plain sort, unlike ``axis=0``)."""
+    rows = cells[:, 0] + reach
+    cols = cells[:, 1] + reach
+    span_r, span_c = height + 2 * reach, width + 2 * reach
+    keep = (rows >= 0) & (rows < span_r) & (cols >= 0) & (cols < span_c)
+    flat = np.unique(rows[keep] * span_c + cols[keep])
+    return np.column_stack([flat // span_c - reach, flat % span_c - reach])
+
+
 class LikelihoodGrid:
     """Smeared reference points on a grid, plus its ``block``-cell bound grid.
 
@@ -119,10 +131,8 @@ class LikelihoodGrid:
         height = math.ceil((ymax - ymin) / resolution) + 1
         self.fine = np.zeros((height, width), np.float32)
         self.bound = np.zeros((height, width), np.float32)
-        cells = self.cells_of(points)
-        if cells.shape[0]:
-            cells = np.unique(cells, axis=0)
         radius = max(1, math.ceil(3.0 * smear_deviation / resolution))
+        cells = _distinct_cells(self.cells_of(points), height, width, radius + self.block)
         kernel, low = _smear_kernel(radius, resolution, smear_deviation, 1)
         _stamp(self.fine, cells, kernel, low)
         kernel_b, low_b = _smear_kernel(radius, resolution, smear_deviation, self.block)
