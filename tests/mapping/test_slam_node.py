@@ -79,7 +79,7 @@ def test_serialized_graph_reloads_and_continues_without_a_jump(tmp_path: Path) -
 
 
 def test_localization_mode_corrects_a_wrong_initial_pose(tmp_path: Path) -> None:
-    rt, sim, slam, command = _slam_sim()
+    rt, _, slam, _ = _slam_sim()
     rt.scheduler.run_until(20.0)
     path = rt.bus.call("/slam_toolbox/serialize_map",
                                {"filename": str(tmp_path / "corridor")})["path"]
