@@ -173,6 +173,20 @@ class TwistWithCovariance:
     covariance: NDArray[np.float64] = field(default_factory=_zeros6)
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class TwistWithCovarianceStamped:
+    header: Header = field(default_factory=Header)
+    twist: TwistWithCovariance = field(default_factory=TwistWithCovariance)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PoseArray:
+    """geometry_msgs/PoseArray (AMCL's particle cloud)."""
+
+    header: Header = field(default_factory=Header)
+    poses: tuple[Pose, ...] = ()
+
+
 @dataclass(frozen=True, slots=True)
 class Transform:
     translation: Vector3 = field(default_factory=Vector3)

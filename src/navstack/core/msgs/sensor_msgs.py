@@ -82,6 +82,15 @@ class Imu:
     linear_acceleration_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class MagneticField:
+    """sensor_msgs/MagneticField [tesla], in ``header.frame_id``."""
+
+    header: Header = field(default_factory=Header)
+    magnetic_field: Vector3 = field(default_factory=Vector3)
+    magnetic_field_covariance: NDArray[np.float64] = field(default_factory=_zeros3x3)
+
+
 @dataclass(frozen=True, slots=True)
 class NavSatStatus:
     """sensor_msgs/NavSatStatus: ``status`` -1 no fix, 0 fix, 1 SBAS, 2 GBAS."""
