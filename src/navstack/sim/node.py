@@ -10,7 +10,9 @@ Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
 rate, and map -> odom when ``perfect_localization`` is on so navigation can run before
 localization exists: at 10 Hz, future-dated by 0.1 s as AMCL's ``transform_tolerance``
 does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
-(the true pose in ``map``).  Each sensor runs on its own timer at its configured rate.
+(the true pose in ``map``), and when enabled ``/gps/fix`` (NavSatFix), ``/gps/vel`` (ENU
+velocity, TwistWithCovarianceStamped) and ``/imu/mag`` (MagneticField) -- topic names
+from the profile.  Each sensor runs on its own timer at its configured rate.
 """
 
 from __future__ import annotations
@@ -20,12 +22,15 @@ from navstack.core.msgs import (
     Header,
     Imu,
     LaserScan,
+    MagneticField,
+    NavSatFix,
     Odometry,
     Pose2D,
     TFMessage,
     Transform,
     TransformStamped,
     Twist,
+    TwistWithCovarianceStamped,
     Vector3,
 )
 from navstack.core.msgs.geometry_msgs import Quaternion
@@ -72,6 +77,16 @@ class SimulatorNode(Node):
             self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
         if sensors.ground_truth.enabled:
             self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
+        if self.sim.gnss is not None:
+            self.pub_fix = self.create_publisher(_topic(sensors.gnss.topic), NavSatFix,
+                                                 SENSOR_DATA)
+            self.pub_gps_vel = self.create_publisher(_topic(sensors.gnss.velocity_topic),
+                                                     TwistWithCovarianceStamped, SENSOR_DATA)
+            self.create_timer(1.0 / sensors.gnss.rate_hz, self._gnss)
+        if self.sim.magnetometer is not None:
+            self.pub_mag = self.create_publisher(_topic(sensors.magnetometer.topic),
+                                                 MagneticField, SENSOR_DATA)
+            self.create_timer(1.0 / sensors.magnetometer.rate_hz, self._mag)
 
     def on_activate(self) -> None:
         sensors = self.sim.robot.sensors
@@ -80,6 +95,11 @@ class SimulatorNode(Node):
             static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
         if self.sim.imu is not None:
             static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
+        if self.sim.gnss is not None:
+            static.append(self._static_tf(sensors.gnss.frame_id, sensors.gnss.mount))
+        if self.sim.magnetometer is not None:
+            static.append(self._static_tf(sensors.magnetometer.frame_id,
+                                          sensors.magnetometer.mount))
         self.pub_tf_static.publish(TFMessage(tuple(static)))
         self._last_imu_t = self.now
         self._odom()
@@ -145,6 +165,27 @@ class SimulatorNode(Node):
         if msg is not None:
             self.pub_imu.publish(msg)
 
+    def _gnss(self) -> None:
+        self.advance()
+        sample = self.sim.gnss_sample(self.now)
+        if sample is None:
+            return
+        fix, vel = sample
+        self.pub_fix.publish(fix)
+        if vel is not None:
+            self.pub_gps_vel.publish(vel)
+
+    def _mag(self) -> None:
+        self.advance()
+        msg = self.sim.magnetic_field(self.now)
+        if msg is not None:
+            self.pub_mag.publish(msg)
+
     def _truth(self) -> None:
         self.advance()
         self.pub_truth.publish(self.sim.truth(self.now))
+
+
+def _topic(name: str) -> str:
+    """Absolute topic name (profile topics are written without the leading slash)."""
+    return name if name.startswith("/") else "/" + name

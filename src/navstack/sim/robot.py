@@ -11,6 +11,9 @@ A profile is a YAML file (built-ins live in ``navstack/sim/robots/``)::
       odometry: {rate_hz: 30, linear_velocity_noise_std: 0.01, ...}
       imu: {enabled: false}
       ground_truth: {rate_hz: 50}
+      gnss: {enabled: true, rate_hz: 5, horizontal_noise_std: 2.0}    # off by default
+      magnetometer: {enabled: true, declination: 0.19}                # off by default
+      georeference: {latitude: 38.4064, longitude: -110.7919}         # world on the Earth
 
 Every key is validated on load: unknown keys, wrong types and out-of-range values raise
 :class:`~navstack.core.errors.ConfigError` naming the file and the key path
@@ -161,13 +164,105 @@ class GroundTruthParams(Params):
     rate_hz: float = Field(default=50.0, gt=0.0)
 
 
+class GeoReferenceParams(Params):
+    """Where the simulated world lies on the Earth, for the GNSS and the magnetometer.
+
+    The world origin is at WGS84 ``latitude``/``longitude`` [deg] and ``altitude`` [m above
+    the ellipsoid]; the world x axis points at ENU yaw ``world_yaw`` [rad] (0: x east,
+    y north), so a world point (x, y) is at ENU ``R(world_yaw) (x, y)`` about that datum.
+    The default is the Mars Desert Research Station, Utah (University Rover Challenge).
+    """
+
+    model_config = _FINITE
+
+    latitude: float = Field(default=38.406415, ge=-90.0, le=90.0)
+    longitude: float = Field(default=-110.791924, ge=-180.0, le=180.0)
+    altitude: float = 1380.0
+    world_yaw: float = 0.0
+
+
+class GnssParams(Params):
+    """A GNSS receiver (sensor_msgs/NavSatFix on ``topic``, ENU velocity on
+    ``velocity_topic`` as geometry_msgs/TwistWithCovarianceStamped, as the ublox driver's
+    ``fix_velocity``).
+
+    The antenna sits at ``mount``.  Position error per axis (east and north) is white
+    noise of ``horizontal_noise_std`` [m] plus a first-order Gauss-Markov bias of
+    stationary std ``bias_std`` [m] and correlation time ``bias_time_constant`` [s] (the
+    slowly wandering error of an uncorrected receiver); ``vertical_noise_std`` [m] for
+    the altitude.  ``velocity_noise_std`` [m/s] per axis on the Doppler velocity (speed
+    and course over ground).  During each ``outages`` interval ``[start, end)`` of
+    simulation time the receiver reports ``STATUS_NO_FIX`` with NaN position and no
+    velocity.  Unlike the other sensors the default noise is not zero: a GNSS without
+    error is not a useful default (2 m per axis is a typical single-band receiver).
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    topic: str = "gps/fix"
+    velocity_topic: str = "gps/vel"
+    frame_id: str = "gps_link"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=5.0, gt=0.0)
+    horizontal_noise_std: float = Field(default=2.0, ge=0.0)
+    vertical_noise_std: float = Field(default=3.0, ge=0.0)
+    bias_std: float = Field(default=0.0, ge=0.0)
+    bias_time_constant: float = Field(default=60.0, gt=0.0)
+    velocity_noise_std: float = Field(default=0.05, ge=0.0)
+    outages: tuple[tuple[float, float], ...] = ()
+
+    @field_validator("outages")
+    @classmethod
+    def _intervals(cls, value: tuple[tuple[float, float], ...]
+                   ) -> tuple[tuple[float, float], ...]:
+        for start, end in value:
+            if not end > start:
+                raise ValueError(f"each outage is [start, end) with end > start, got "
+                                 f"[{start}, {end}]")
+        return value
+
+
+class MagnetometerParams(Params):
+    """A 3-axis magnetometer (sensor_msgs/MagneticField [T] in ``frame_id``).
+
+    The Earth's field has ``horizontal_intensity`` [T] towards magnetic north, which lies
+    ``declination`` [rad] east of true north (the sign WMM/NOAA use), and
+    ``vertical_intensity`` [T] downwards (positive in the northern hemisphere).
+    ``heading_offset`` [rad] rotates the measured field as an uncalibrated mounting or
+    soft-iron error would (the sensor reads as if yawed by it); ``hard_iron`` [T] is a
+    constant offset in the sensor frame and ``noise_std`` [T] white noise per axis.
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    topic: str = "imu/mag"
+    frame_id: str = "mag_link"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=20.0, gt=0.0)
+    declination: float = Field(default=0.0, ge=-math.pi, le=math.pi)
+    horizontal_intensity: float = Field(default=2.2e-5, gt=0.0)
+    vertical_intensity: float = 4.4e-5
+    heading_offset: float = Field(default=0.0, ge=-math.pi, le=math.pi)
+    hard_iron: Vec3 = (0.0, 0.0, 0.0)
+    noise_std: float = Field(default=0.0, ge=0.0)
+
+
 class SensorsParams(Params):
-    """The robot's sensor suite; each sensor can be switched off with ``enabled: false``."""
+    """The robot's sensor suite; each sensor can be switched off with ``enabled: false``.
+
+    ``gnss`` and ``magnetometer`` are off unless a profile enables them;
+    ``georeference`` places the world on the Earth for both.
+    """
 
     lidar: LidarParams = Field(default_factory=LidarParams)
     odometry: OdometryParams = Field(default_factory=OdometryParams)
     imu: ImuParams = Field(default_factory=ImuParams)
     ground_truth: GroundTruthParams = Field(default_factory=GroundTruthParams)
+    gnss: GnssParams = Field(default_factory=GnssParams)
+    magnetometer: MagnetometerParams = Field(default_factory=MagnetometerParams)
+    georeference: GeoReferenceParams = Field(default_factory=GeoReferenceParams)
 
 
 Polygon2 = tuple[tuple[float, float], ...]

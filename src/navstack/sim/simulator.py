@@ -2,7 +2,8 @@
 
 ``Simulator`` is a pure, deterministic object (one ``numpy.random.Generator`` seeded at
 construction, explicit time): :mod:`navstack.sim.node` wraps it in a lifecycle node that
-publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth``.
+publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth`` (and
+``/gps/fix``, ``/gps/vel``, ``/imu/mag`` when the profile enables GNSS / magnetometer).
 
 Moving obstacles yield: each has its own clock, held still during a step in which its
 motion would bring it closer to the robot than ``yield_margin`` (0.6 m) beyond their
@@ -27,8 +28,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.errors import InvalidMessage
-from navstack.core.msgs import Imu, LaserScan, Odometry, Pose2D, Twist2D
+from navstack.core.msgs import (
+    Imu,
+    LaserScan,
+    MagneticField,
+    NavSatFix,
+    Odometry,
+    Pose2D,
+    Twist2D,
+    TwistWithCovarianceStamped,
+)
 from navstack.sim.collision import footprint_collides
+from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, make_model
 from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
@@ -83,6 +94,14 @@ class Simulator:
                          if sensors.odometry.enabled else None)
         self.imu = ImuModel(sensors.imu) if sensors.imu.enabled else None
         self.ground_truth = GroundTruthModel(sensors.ground_truth)
+        # GNSS and magnetometer draw from their own streams so that enabling them leaves
+        # the noise of every other sensor (and so existing seeded runs) unchanged
+        self.gnss = (GnssModel(sensors.gnss, sensors.georeference)
+                     if sensors.gnss.enabled else None)
+        self.magnetometer = (MagnetometerModel(sensors.magnetometer, sensors.georeference)
+                             if sensors.magnetometer.enabled else None)
+        self.gnss_rng = np.random.default_rng([seed, 1])
+        self.magnetometer_rng = np.random.default_rng([seed, 2])
         self.distance_travelled = 0.0
 
     # --- commands ------------------------------------------------------------------
@@ -241,6 +260,20 @@ class Simulator:
         msg = self.imu.measure(self.state, self._imu_prev_state, dt, now, self.rng)
         self._imu_prev_state = self.state
         return msg
+
+    def gnss_sample(self, now: float
+                    ) -> tuple[NavSatFix, TwistWithCovarianceStamped | None] | None:
+        """A GNSS fix and ENU velocity (``None`` without a GNSS; velocity ``None`` when
+        the receiver has no fix)."""
+        if self.gnss is None:
+            return None
+        return self.gnss.measure(self.state, now, self.gnss_rng)
+
+    def magnetic_field(self, now: float) -> MagneticField | None:
+        """A magnetometer sample (``None`` without a magnetometer)."""
+        if self.magnetometer is None:
+            return None
+        return self.magnetometer.measure(self.state, now, self.magnetometer_rng)
 
     def truth(self, now: float) -> Odometry:
         return self.ground_truth.measure(self.state, now)
