@@ -16,6 +16,7 @@ SUITE_MODULES: dict[str, str] = {
     "navigation": "navstack.benchmarks.navigation",
     "slam": "navstack.benchmarks.slam",
     "slam-params": "navstack.benchmarks.slam_params",
+    "localization": "navstack.benchmarks.localization",
 }
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
@@ -37,6 +37,9 @@ from navstack.sim.simulator import Simulator
 from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
+if TYPE_CHECKING:
+    from navstack.localization.amcl.node import AmclNode
+
 
 def default_nav2_params_path() -> Path:
     return Path(str(resources.files("navstack") / "config" / "nav2_params.yaml"))
@@ -49,7 +52,8 @@ class NavStack:
                  nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
                  spawn: Pose2D | None = None, perfect_localization: bool = True,
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
-                 slam: bool | SlamParams | Mapping[str, Any] = False) -> None:
+                 slam: bool | SlamParams | Mapping[str, Any] = False,
+                 amcl: bool | Mapping[str, Any] = False) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
         the map given to navigation (default: the world's true static map).
 
@@ -57,7 +61,11 @@ class NavStack:
         parameters, ``True`` for the defaults) builds ``/map`` and publishes
         ``map -> odom``; there is no map server and no perfect localization.  The SLAM map
         frame starts at the spawn pose (slam_toolbox ``map_start_pose``), so goals keep
-        the world's coordinates."""
+        the world's coordinates.
+
+        ``amcl``: localize with AMCL on the known map instead of the simulator's perfect
+        ``map -> odom`` (Nav2 ``amcl`` parameters, ``True`` for the defaults); the
+        initial pose is the spawn pose (``set_initial_pose``) unless given."""
         if nav2_params is None or isinstance(nav2_params, str | Path):
             path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
             nav, file = load_yaml(path), str(path)
@@ -75,7 +83,22 @@ class NavStack:
         simulator = Simulator(self.world, self.robot, seed, spawn)
         self.slam: SlamNode | None = None
         self.map_server: MapServer | None = None
-        if slam is False:
+        self.amcl: AmclNode | None = None
+        if slam is False and amcl is not False:
+            from navstack.localization.amcl.node import AmclNode
+            from navstack.localization.amcl.params import AmclParams
+
+            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, False)
+            self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
+            start = simulator.pose
+            given = {} if amcl is True else dict(amcl)
+            section = ros_parameters(nav, "amcl", file=file)  # the Nav2 file's amcl:
+            amcl_params = AmclParams.from_mapping(
+                {"set_initial_pose": True, "base_frame_id": "base_link",
+                 "initial_pose": {"x": start.x, "y": start.y, "yaw": start.theta},
+                 **section, **given}, file=file, key_path="amcl")
+            self.amcl = AmclNode(rt, amcl_params)
+        elif slam is False:
             self.sim = SimulatorNode(rt, simulator, physics_rate_hz, perfect_localization)
             self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
         else:
@@ -116,6 +139,11 @@ class NavStack:
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
+        if self.amcl is not None:
+            # AMCL publishes map -> odom after its first scan: wait for it (as a Nav2
+            # launch waits for localization before sending goals), at most 2 s
+            rt.scheduler.run_until(2.0, until=lambda: rt.tf.can_transform("map", "odom"))
+            self.sim.advance()
         self.global_costmap.update()
         self.local_costmap.update()
 
