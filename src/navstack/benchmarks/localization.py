@@ -190,9 +190,10 @@ def _global_localization(result: BenchResult, trials: int) -> None:
         rt, sim, amcl = _amcl_sim(100 + k, spawn, GLOBAL)
         _rotate(rt)
         rt.bring_up()
+        rt.scheduler.run_until(0.2)  # the latched map reaches AMCL once it is active
         amcl.global_localization()
         converged_at = math.nan
-        t = 0.0
+        t = 0.2
         while t < GLOBAL_LIMIT_S:
             t += 0.5
             rt.scheduler.run_until(t)
