@@ -13,8 +13,8 @@ All runs are in the built-in simulator with fixed seeds (deterministic):
   0.3 rad of the truth after at most 30 s of rotating in place.
 * ``kidnap_recovery_s``: median time to be within 0.5 m again after the localized robot
   is teleported to another place after 40 s of tracking (AMCL recovery:
-  ``recovery_alpha_slow`` 0.01, ``recovery_alpha_fast`` 0.1; at the commonly suggested 0.001 the slow average has not
-  settled after 40 s and a kidnap triggers no injection).
+  ``recovery_alpha_slow`` 0.01, ``recovery_alpha_fast`` 0.1; at the commonly suggested
+  0.001 the slow average has not settled after 40 s and a kidnap triggers no injection).
 * ``amcl_update_ms``: median wall time of a filter update (motion + sensor + resample)
   with 2000 particles (min = max = 2000) and 60 beams.
 * ``ekf_rmse_m`` / ``odom_rmse_m`` / ``ekf_update_ms`` / ``ekf_nees_inside``: a campus
