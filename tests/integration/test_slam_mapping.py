@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from navstack.mapping.sim_mapping import SimMappingResult, run_sim_mapping
+from navstack.benchmarks.sim_mapping import SimMappingResult, run_sim_mapping
 
 
 @pytest.fixture(scope="module")

@@ -266,7 +266,7 @@ def _amcl_speed(result: BenchResult, updates: int) -> None:
 
 # --- EKF + GNSS -------------------------------------------------------------------------
 def _ekf_campus(result: BenchResult, duration: float) -> None:
-    from navstack.localization.ekf_campus import run_campus_drive
+    from navstack.benchmarks.ekf_campus import run_campus_drive
 
     t0 = time.perf_counter()
     run = run_campus_drive(duration)

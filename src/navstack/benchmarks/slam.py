@@ -126,7 +126,7 @@ def _run_sim(result: BenchResult, quick: bool) -> None:
     ``sim_map_iou`` (occupied cells vs the world raster at 0.05 m, one cell of tolerance;
     :func:`navstack.mapping.map_metrics.occupancy_iou`), and the same with
     ``do_loop_closing: false`` (``*_no_loop``) to show what the closures are worth."""
-    from navstack.mapping.sim_mapping import run_sim_mapping
+    from navstack.benchmarks.sim_mapping import run_sim_mapping
 
     route = SIM_ROUTE[:2] if quick else SIM_ROUTE
     for suffix, overrides in (("", {}), ("_no_loop", {"do_loop_closing": False})):

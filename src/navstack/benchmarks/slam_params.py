@@ -39,7 +39,7 @@ COSTMAP_SWEEP: dict[str, tuple[float, ...]] = {
 
 def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
     """One baseline run plus one run per swept value (``data_dir`` is not used)."""
-    from navstack.mapping.sim_mapping import run_sim_mapping
+    from navstack.benchmarks.sim_mapping import run_sim_mapping
 
     route = ROUTE[:1] if quick else ROUTE
     result = BenchResult("slam-params", show_cases=True)

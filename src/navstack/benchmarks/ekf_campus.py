@@ -13,7 +13,7 @@ estimates are compared with the simulator's truth every 0.5 s:
 
 The EKF's process noise is tuned for this robot (robot_localization's default leaves it
 far under-confident: its NEES falls below the 95% band on most steps); the values are in
-:data:`EKF_PARAMS`.
+:func:`ekf_params`.
 """
 
 from __future__ import annotations
@@ -27,38 +27,43 @@ import numpy as np
 from navstack.core.geometry import normalize_angle, se2_compose
 from navstack.localization.consistency import nees, nees_band
 
-__all__ = ["EKF_PARAMS", "ROUTE", "CampusDriveResult", "run_campus_drive"]
+__all__ = ["PROCESS_NOISE_DIAGONAL", "ROUTE", "CampusDriveResult", "ekf_params",
+           "gnss_sensors", "run_campus_drive"]
 
 #: closed route around the fountain (centre (50, 50), radius 4), clear of the buildings
 ROUTE = np.array([[43.0, 43.0], [57.0, 43.0], [57.0, 57.0], [43.0, 57.0]])
+ROUTE.setflags(write=False)
 SPEED = 0.5
 LOOKAHEAD = 1.5
-GNSS: dict[str, dict[str, Any]] = {"gnss": {"enabled": True, "frame_id": "gps_link",
-                 "mount": {"x": 0.0, "y": 0.0, "z": 0.5, "yaw": 0.0}, "rate_hz": 5.0,
-                 "horizontal_noise_std": 2.0, "vertical_noise_std": 3.0, "bias_std": 0.0},
-        "georeference": {"latitude": 38.406415, "longitude": -110.791924,
-                         "altitude": 1380.0, "world_yaw": 0.0}}
-_STATE = 15
-_NOISE = [0.0] * (_STATE * _STATE)
-for _i, _v in enumerate([5e-4, 5e-4, 0.0, 0.0, 0.0, 1e-5,
-                         1e-2, 1e-3, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0]):
-    _NOISE[_i * _STATE + _i] = _v
-#: robot_localization parameters of the evaluated EKF
-EKF_PARAMS: dict[str, Any] = {
-    "frequency": 30.0, "two_d_mode": True, "publish_tf": False, "sensor_timeout": 1.0,
-    # GNSS odometry arrives after newer wheel/IMU data: replay it in time order
-    "smooth_lagged_data": True, "history_length": 2.0,
-    "odom0": "/odom",
-    "odom0_config": [False, False, False, False, False, False,
-                     True, False, False, False, False, True, False, False, False],
-    "imu0": "/imu",
-    "imu0_config": [False, False, False, False, False, True,
-                    False, False, False, False, False, True, False, False, False],
-    "odom1": "/odometry/gps",
-    "odom1_config": [True, True, False, False, False, False,
-                     False, False, False, False, False, False, False, False, False],
-    "process_noise_covariance": _NOISE,
-}
+#: the EKF's process noise diagonal (x y z roll pitch yaw vx vy vz vroll vpitch vyaw ax ay az)
+PROCESS_NOISE_DIAGONAL = (5e-4, 5e-4, 0.0, 0.0, 0.0, 1e-5,
+                          1e-2, 1e-3, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0)
+_ODOM_TWIST = (False,) * 6 + (True, False, False, False, False, True) + (False,) * 3
+_IMU_YAW = (False,) * 5 + (True,) + (False,) * 5 + (True,) + (False,) * 3
+_GPS_XY = (True, True) + (False,) * 13
+
+
+def gnss_sensors() -> dict[str, dict[str, Any]]:
+    """Robot profile overrides: a 5 Hz GNSS with 2 m white noise per axis (no bias)."""
+    return {"gnss": {"enabled": True, "frame_id": "gps_link",
+                     "mount": {"x": 0.0, "y": 0.0, "z": 0.5, "yaw": 0.0}, "rate_hz": 5.0,
+                     "horizontal_noise_std": 2.0, "vertical_noise_std": 3.0, "bias_std": 0.0},
+            "georeference": {"latitude": 38.406415, "longitude": -110.791924,
+                             "altitude": 1380.0, "world_yaw": 0.0}}
+
+
+def ekf_params(start: tuple[float, float, float]) -> dict[str, Any]:
+    """robot_localization parameters of the evaluated EKF, starting at ``start``."""
+    return {
+        "frequency": 30.0, "two_d_mode": True, "publish_tf": False, "sensor_timeout": 1.0,
+        # GNSS odometry arrives after newer wheel/IMU data: replay it in time order
+        "smooth_lagged_data": True, "history_length": 2.0,
+        "odom0": "/odom", "odom0_config": list(_ODOM_TWIST),
+        "imu0": "/imu", "imu0_config": list(_IMU_YAW),
+        "odom1": "/odometry/gps", "odom1_config": list(_GPS_XY),
+        "process_noise_covariance": list(PROCESS_NOISE_DIAGONAL),
+        "initial_state": [start[0], start[1], 0.0, 0.0, 0.0, start[2]] + [0.0] * 9,
+    }
 
 
 @dataclass
@@ -103,14 +108,14 @@ def run_campus_drive(duration: float = 600.0, seed: int = 4) -> CampusDriveResul
     from navstack.sim.worlds import load_world
 
     start = (float(ROUTE[0, 0]), float(ROUTE[0, 1]), 0.0)
-    params = dict(EKF_PARAMS, initial_state=[start[0], start[1], 0.0, 0.0, 0.0, start[2]]
-                  + [0.0] * 9)
+    params = ekf_params(start)
     rt = Runtime()
-    robot = load_robot("diff_drive", {"sensors": GNSS})
+    sensors = gnss_sensors()
+    robot = load_robot("diff_drive", {"sensors": sensors})
     sim = SimulatorNode(rt, Simulator(load_world("campus"), robot, seed, Pose2D(*start)),
                         50.0, True)
     ekf = EkfNode(rt, EkfParams.from_mapping(params, key_path="ekf_filter_node"))
-    geo = GNSS["georeference"]
+    geo = sensors["georeference"]
     # the datum is the world origin (robot_localization ``datum`` + ``wait_for_datum``):
     # anchoring the transform on the first 2 m-noise fix would offset every later fix
     NavsatTransformNode(rt, NavsatTransformParams(
