@@ -17,6 +17,12 @@ from navstack.core.registry import PluginRegistry
 CONTROLLERS: PluginRegistry[str] = PluginRegistry("controller")
 CONTROLLERS.register("DWB", "navstack.control.dwb.dwb_controller:DWBLocalPlanner",
                      aliases=("dwb_core::DWBLocalPlanner", "dwb_core/DWBLocalPlanner"))
+CONTROLLERS.register("RegulatedPurePursuit",
+                     "navstack.control.rpp.controller:RegulatedPurePursuitController",
+                     aliases=("nav2_regulated_pure_pursuit_controller::"
+                              "RegulatedPurePursuitController",
+                              "nav2_regulated_pure_pursuit_controller/"
+                              "RegulatedPurePursuitController"))
 
 PLANNERS: PluginRegistry[str] = PluginRegistry("planner")
 PLANNERS.register("Navfn", "navstack.planning.navfn:NavfnPlanner",
@@ -24,6 +30,9 @@ PLANNERS.register("Navfn", "navstack.planning.navfn:NavfnPlanner",
 PLANNERS.register("CostAwareAStar", "navstack.planning.astar:CostAwareAStar",
                   aliases=("nav2_smac_planner/SmacPlanner2D",
                            "nav2_smac_planner::SmacPlanner2D"))
+PLANNERS.register("ThetaStarPlanner", "navstack.planning.theta_star:ThetaStarPlanner",
+                  aliases=("nav2_theta_star_planner/ThetaStarPlanner",
+                           "nav2_theta_star_planner::ThetaStarPlanner"))
 
 GOAL_CHECKERS: PluginRegistry[str] = PluginRegistry("goal checker")
 GOAL_CHECKERS.register("SimpleGoalChecker", "navstack.control.goal_checker:SimpleGoalChecker",
