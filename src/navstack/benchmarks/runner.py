@@ -17,6 +17,7 @@ SUITE_MODULES: dict[str, str] = {
     "slam": "navstack.benchmarks.slam",
     "slam-params": "navstack.benchmarks.slam_params",
     "localization": "navstack.benchmarks.localization",
+    "recording": "navstack.benchmarks.recording",
 }
 
 

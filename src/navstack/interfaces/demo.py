@@ -74,12 +74,21 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
 
 def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
-             show_progress: bool = True) -> dict[str, Any]:
-    """Run the waypoint mission and write the report files; returns the report dict."""
+             show_progress: bool = True, record: bool = False) -> dict[str, Any]:
+    """Run the waypoint mission and write the report files; returns the report dict.
+
+    ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
+    default topics, ground truth and goals; replaces a bag left there by an earlier run).
+    """
     out.mkdir(parents=True, exist_ok=True)
     waypoints = load_waypoints(waypoints_file or default_waypoints_path())
     wall0 = time.perf_counter()
     stack = NavStack(world, robot, seed=seed)
+    bag = None
+    if record:
+        from navstack.runtime.recording import BagRecorder
+
+        bag = BagRecorder(stack.runtime, out / "bag", replace=True)
     nav = Navigator(stack)
     recorder = TrajectoryRecorder(stack)
     stack.runtime.scheduler.create_timer(0.1, recorder.sample, first_at=stack.now)
@@ -87,8 +96,11 @@ def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "di
     stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
     records = [GoalRecord(name) for name, _ in waypoints]
     live = _Live(show_progress)
-    for i, ((_, pose), rec) in enumerate(zip(waypoints, records, strict=True)):
-        _run_goal(nav, stack, recorder, pose, rec, i, len(records), goal_timeout_s, live)
+    try:
+        for i, ((_, pose), rec) in enumerate(zip(waypoints, records, strict=True)):
+            _run_goal(nav, stack, recorder, pose, rec, i, len(records), goal_timeout_s, live)
+    finally:  # a recording stays readable even if a goal raised
+        bag_summary = bag.close() if bag is not None else None
     live.close()
     wall = time.perf_counter() - wall0
     traj = recorder.array()
@@ -107,6 +119,8 @@ def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "di
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(stack.now / wall, 2) if wall > 0 else 0.0,
     }
+    if bag_summary is not None:
+        report["bag"] = {"path": str(bag_summary.path), "messages": bag_summary.messages}
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(_markdown(report))
     goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}
