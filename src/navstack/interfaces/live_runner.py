@@ -1,0 +1,305 @@
+"""``LiveRunner``: a :class:`NavStack` stepped in (scaled) real time in one background thread,
+plus the latched emergency stop (:class:`EStopGate`) every live client shares.
+
+The stack is single-threaded by design (ARCHITECTURE.md §4: one deterministic event loop),
+so live clients -- the web dashboard, the Foxglove bridge, a chat bot -- never call into it
+from their own threads.  They hand work to the simulation thread instead:
+
+* :meth:`LiveRunner.submit` queues a function that runs in the simulation thread between two
+  steps and returns a :class:`concurrent.futures.Future` with its result;
+* :meth:`LiveRunner.add_observer` registers a function called in the simulation thread after
+  every step (observers copy what they need into immutable snapshots for their clients).
+
+Each step advances simulated time by ``step`` seconds (default 0.05 s: one cycle of Nav2's
+``controller_frequency`` 20 Hz), so a command waits at most one control cycle of simulated
+time before it takes effect.  Between steps the thread sleeps until wall time catches up
+with ``real_time_factor`` x real time (``None``: as fast as the CPU allows); when the CPU
+cannot keep up for more than ``max_lag`` wall seconds the schedule is re-anchored instead of
+sprinting to catch up (counted in ``overruns``).
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Future
+from typing import Any, TypeVar
+
+from pydantic import Field
+
+from navstack.core.errors import NavstackError
+from navstack.core.msgs import Bool, Twist
+from navstack.core.params import Params
+from navstack.interfaces.stack import NavStack
+from navstack.runtime.bus import LATCHED, QoS
+from navstack.runtime.node import Runtime
+
+T = TypeVar("T")
+_log = logging.getLogger("navstack.live")
+
+
+class RunnerError(NavstackError):
+    """The live runner cannot do what was asked (not running, stopped by an error)."""
+
+
+class LiveRunnerParams(Params):
+    """Pacing of the live simulation (no Nav2 counterpart: Nav2 runs on a real clock).
+
+    ``real_time_factor``: simulated seconds per wall second (``None``: unthrottled);
+    ``step``: simulated seconds per step, the latency bound of a command (one controller
+    cycle at Nav2's ``controller_frequency`` 20 Hz); ``max_lag``: wall seconds behind
+    schedule after which the pacing re-anchors rather than catching up.
+    """
+
+    real_time_factor: float | None = Field(1.0, gt=0.0)
+    step: float = Field(0.05, gt=0.0, le=1.0)
+    max_lag: float = Field(0.5, gt=0.0)
+
+
+def _is_zero(msg: Twist) -> bool:
+    return (msg.linear.x == 0.0 and msg.linear.y == 0.0 and msg.linear.z == 0.0
+            and msg.angular.x == 0.0 and msg.angular.y == 0.0 and msg.angular.z == 0.0)
+
+
+class EStopGate:
+    """Latched emergency stop at the last stage before the base: ``/cmd_vel``.
+
+    The base (the simulator node, or a driver) listens on ``topic``.  While latched, every
+    non-zero command that reaches that topic -- from the controller through the collision
+    monitor, a behavior, teleop or anything else -- is answered at once, at the same
+    simulated instant, by a zero command on the same topic; since the bus delivers in order
+    and no simulated time passes in between, the base integrates zero velocity only.  A
+    latch also publishes zero immediately, so the robot is commanded to stop even when no
+    other source is publishing.  The latch holds until :meth:`release` is called explicitly
+    (twist_mux's ``e_stop`` lock semantics); its state is published latched on
+    ``status_topic`` (``std_msgs/Bool``) for other nodes and recorders.
+
+    Navigation is not cancelled: as with a hardware e-stop under Nav2, the running task
+    resumes after release (or fails through its progress checker if held long enough).
+    """
+
+    def __init__(self, runtime: Runtime, topic: str = "/cmd_vel",
+                 status_topic: str = "/e_stop") -> None:
+        self.runtime = runtime
+        self.topic = topic
+        self._pub = runtime.bus.publisher(topic, Twist, QoS(depth=1))
+        self._status = runtime.bus.publisher(status_topic, Bool, LATCHED)
+        self._sub = runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
+        self.latched = False
+        self.latched_at: float | None = None
+        self.released_at: float | None = None
+        self.reason = ""
+        self.overrides = 0
+        self._status.publish(Bool(False))
+
+    def latch(self, reason: str = "") -> float:
+        """Latch (idempotent) and command zero velocity now; returns the latch time [s]."""
+        if not self.latched:
+            self.latched = True
+            self.latched_at = self.runtime.now
+            self.reason = reason
+            self._status.publish(Bool(True))
+        self._pub.publish(Twist())
+        assert self.latched_at is not None
+        return self.latched_at
+
+    def release(self) -> float:
+        """Release the latch; commands pass again from the next one.  Returns the time [s]."""
+        if self.latched:
+            self.latched = False
+            self.released_at = self.runtime.now
+            self.reason = ""
+            self._status.publish(Bool(False))
+        return self.runtime.now
+
+    def _on_cmd(self, msg: Twist) -> None:
+        if self.latched and not _is_zero(msg):
+            self.overrides += 1
+            self._pub.publish(Twist())
+
+    def state(self) -> dict[str, Any]:
+        return {"latched": self.latched, "latched_at": self.latched_at,
+                "released_at": self.released_at, "reason": self.reason,
+                "overrides": self.overrides}
+
+
+class LiveRunner:
+    """Runs ``stack`` in a background thread at ``real_time_factor`` x real time."""
+
+    def __init__(self, stack: NavStack, real_time_factor: float | None = 1.0, *,
+                 step: float = 0.05, params: LiveRunnerParams | None = None) -> None:
+        """``real_time_factor`` ``None`` runs unthrottled; ``params``, when given, replaces
+        both keyword settings."""
+        self.params = params or LiveRunnerParams.from_mapping(
+            {"real_time_factor": real_time_factor, "step": step}, key_path="live_runner")
+        self.stack = stack
+        self.estop = EStopGate(stack.runtime)
+        self.now = stack.now
+        self.steps = 0
+        self.overruns = 0
+        self.observer_errors = 0
+        self.error: BaseException | None = None
+        self._commands: queue.SimpleQueue[tuple[Callable[[NavStack], Any], Future[Any]]] = (
+            queue.SimpleQueue())
+        self._observers: list[Callable[[float], None]] = []
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._pace: deque[tuple[float, float]] = deque(maxlen=64)
+
+    # --- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start the simulation thread (once)."""
+        if self._thread is not None:
+            raise RunnerError("the live runner was already started; create a new one to "
+                              "run again")
+        self._thread = threading.Thread(target=self._loop, name="navstack-sim", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop after the current step and wait for the thread (idempotent)."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+            if self._thread.is_alive():
+                raise RunnerError(f"the simulation thread did not stop within {timeout:.1f} s")
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive() and not self._stop.is_set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the simulation thread ends (``True``) or ``timeout`` passes."""
+        if self._thread is None:
+            return True
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    @property
+    def real_time_factor(self) -> float:
+        """Measured simulated seconds per wall second over the last ~64 steps."""
+        if len(self._pace) < 2:
+            return 0.0
+        (w0, s0), (w1, s1) = self._pace[0], self._pace[-1]
+        return (s1 - s0) / (w1 - w0) if w1 > w0 else 0.0
+
+    # --- work from other threads ---------------------------------------------------------------
+    def submit(self, fn: Callable[[NavStack], T]) -> Future[T]:
+        """Run ``fn(stack)`` in the simulation thread before the next step."""
+        if not self.running:
+            raise RunnerError(self._not_running())
+        fut: Future[T] = Future()
+        self._commands.put((fn, fut))
+        self._wake.set()
+        if not self.running:  # the thread ended between the check and the put
+            self._fail_pending()
+        return fut
+
+    def call(self, fn: Callable[[NavStack], T], timeout: float = 10.0) -> T:
+        """Run ``fn(stack)`` where it is safe: in the simulation thread when it runs (and
+        wait for the result), directly when no simulation thread is running (after waiting
+        for a stopping thread to finish its step)."""
+        thread = self._thread
+        if thread is None or thread is threading.current_thread():
+            return fn(self.stack)
+        if self.running:
+            try:
+                return self.submit(fn).result(timeout)
+            except RunnerError:
+                pass  # stopped in the meantime: run it here once the thread has ended
+        thread.join(timeout)
+        if thread.is_alive():
+            raise RunnerError(f"the simulation thread did not stop within {timeout:.1f} s")
+        return fn(self.stack)
+
+    def add_observer(self, fn: Callable[[float], None]) -> Callable[[], None]:
+        """Call ``fn(now)`` in the simulation thread after every step; returns a remover."""
+        def add(_: NavStack) -> None:
+            self._observers.append(fn)
+
+        def remove() -> None:
+            def drop(_: NavStack) -> None:
+                if fn in self._observers:
+                    self._observers.remove(fn)
+            self.call(drop)
+
+        self.call(add)
+        return remove
+
+    def _not_running(self) -> str:
+        if self.error is not None:
+            return f"the simulation stopped with an error: {self.error}"
+        if self._thread is None:
+            return "the simulation is not running yet; call LiveRunner.start() first"
+        return "the simulation was stopped"
+
+    # --- the simulation thread -------------------------------------------------------------------
+    def _drain(self) -> None:
+        while True:
+            try:
+                fn, fut = self._commands.get_nowait()
+            except queue.Empty:
+                return
+            if not fut.set_running_or_notify_cancel():
+                continue
+            try:
+                fut.set_result(fn(self.stack))
+            except Exception as exc:
+                fut.set_exception(exc)
+
+    def _notify(self) -> None:
+        for fn in list(self._observers):
+            try:
+                fn(self.now)
+            except Exception:
+                self.observer_errors += 1
+                _log.exception("live observer %r failed", fn)
+
+    def _loop(self) -> None:
+        stack, p = self.stack, self.params
+        rate = p.real_time_factor
+        wall0, sim0 = time.monotonic(), stack.now
+        try:
+            while not self._stop.is_set():
+                self._drain()
+                stack.run_for(p.step)
+                self.now = stack.now
+                self.steps += 1
+                self._pace.append((time.monotonic(), self.now))
+                self._notify()
+                if rate is None:
+                    self._drain()
+                    time.sleep(0)  # let server threads take the GIL
+                    continue
+                due = wall0 + (self.now - sim0) / rate
+                while not self._stop.is_set():
+                    delay = due - time.monotonic()
+                    if delay <= 0.0:
+                        break
+                    self._wake.wait(delay)
+                    self._wake.clear()
+                    self._drain()
+                if time.monotonic() - due > p.max_lag:
+                    wall0, sim0 = time.monotonic(), self.now
+                    self.overruns += 1
+        except Exception as exc:
+            self.error = exc
+            _log.exception("the live simulation stopped")
+        finally:
+            self._stop.set()
+            self._fail_pending()
+
+    def _fail_pending(self) -> None:
+        while True:
+            try:
+                _, fut = self._commands.get_nowait()
+            except queue.Empty:
+                return
+            if fut.set_running_or_notify_cancel():
+                fut.set_exception(RunnerError(self._not_running()))
+
