@@ -13,6 +13,7 @@ import json
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path as FsPath
@@ -74,11 +75,14 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
 
 def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
-             show_progress: bool = True, record: bool = False) -> dict[str, Any]:
+             show_progress: bool = True, record: bool = False,
+             attach: Callable[[NavStack], Callable[[], None]] | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
     default topics, ground truth and goals; replaces a bag left there by an earlier run).
+    ``attach``: called with the stack once it is built (live viewers: web dashboard,
+    Foxglove); returns the function that detaches them when the mission ends.
     """
     out.mkdir(parents=True, exist_ok=True)
     waypoints = load_waypoints(waypoints_file or default_waypoints_path())
@@ -96,11 +100,14 @@ def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "di
     stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
     records = [GoalRecord(name) for name, _ in waypoints]
     live = _Live(show_progress)
+    detach = attach(stack) if attach is not None else None
     try:
         for i, ((_, pose), rec) in enumerate(zip(waypoints, records, strict=True)):
             _run_goal(nav, stack, recorder, pose, rec, i, len(records), goal_timeout_s, live)
     finally:  # a recording stays readable even if a goal raised
         bag_summary = bag.close() if bag is not None else None
+        if detach is not None:
+            detach()
     live.close()
     wall = time.perf_counter() - wall0
     traj = recorder.array()

@@ -150,6 +150,7 @@ class LiveRunner:
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self._pace: deque[tuple[float, float]] = deque(maxlen=64)
+        self._wall0 = self._sim0 = 0.0
 
     # --- lifecycle ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -159,6 +160,43 @@ class LiveRunner:
                               "run again")
         self._thread = threading.Thread(target=self._loop, name="navstack-sim", daemon=True)
         self._thread.start()
+
+    def start_in_caller(self) -> None:
+        """Serve clients from a simulation the caller steps itself (``navstack demo --web``:
+        the demo's Navigator advances the stack from the main thread).
+
+        The calling thread becomes the simulation thread; a scheduler timer every ``step``
+        of simulated time drains queued commands, notifies observers and sleeps to keep
+        ``real_time_factor``, exactly as the background loop does between its steps.
+        """
+        if self._thread is not None:
+            raise RunnerError("the live runner was already started; create a new one to "
+                              "run again")
+        self._thread = threading.current_thread()
+        self._wall0, self._sim0 = time.monotonic(), self.stack.now
+        self.stack.runtime.scheduler.create_timer(self.params.step, self._tick,
+                                                  first_at=self.stack.now + self.params.step)
+
+    def _tick(self) -> None:
+        """One caller-driven step boundary (:meth:`start_in_caller`)."""
+        if self._stop.is_set():
+            return
+        self._drain()
+        self.now = self.stack.now
+        self.steps += 1
+        self._pace.append((time.monotonic(), self.now))
+        self._notify()
+        rate = self.params.real_time_factor
+        if rate is None:
+            return
+        due = self._wall0 + (self.now - self._sim0) / rate
+        while (delay := due - time.monotonic()) > 0.0 and not self._stop.is_set():
+            self._wake.wait(delay)
+            self._wake.clear()
+            self._drain()
+        if time.monotonic() - due > self.params.max_lag:
+            self._wall0, self._sim0 = time.monotonic(), self.now
+            self.overruns += 1
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop after the current step and wait for the thread (idempotent)."""

@@ -1,0 +1,104 @@
+"""Live viewers for the command line: ``--web`` and ``--foxglove`` on ``navstack run`` and
+``navstack demo``.
+
+Both viewers share one :class:`~navstack.interfaces.live_runner.LiveRunner` (one simulation
+thread, one e-stop latch).  ``navstack run`` lets the runner step the stack in a background
+thread until Ctrl-C (or ``--duration``); ``navstack demo`` keeps stepping from its own
+mission loop and the runner serves the viewers from scheduler ticks
+(:meth:`LiveRunner.start_in_caller`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from navstack.interfaces.live_runner import LiveRunner
+from navstack.interfaces.stack import NavStack
+
+
+@dataclass(frozen=True)
+class LiveOptions:
+    """What the user asked for on the command line."""
+
+    web: bool = False
+    host: str = "127.0.0.1"
+    port: int = 8080
+    token: str | None = None
+    foxglove: bool = False
+    foxglove_port: int = 8765
+    real_time_factor: float | None = 1.0
+
+    @property
+    def enabled(self) -> bool:
+        return self.web or self.foxglove
+
+
+def open_viewers(runner: LiveRunner, options: LiveOptions) -> list[Any]:
+    """Start the requested viewers on ``runner``; returns their handles (``.stop()``).
+
+    Raises ``DashboardError`` / ``FoxgloveLiveError`` (a busy port, with the fix); any
+    viewer already started is stopped first.
+    """
+    handles: list[Any] = []
+    try:
+        if options.web:
+            from navstack.interfaces.web.dashboard import serve_dashboard
+
+            handles.append(serve_dashboard(runner, options.host, options.port, options.token))
+        if options.foxglove:
+            from navstack.interfaces.foxglove_live import start_foxglove
+
+            handle = start_foxglove(runner, "127.0.0.1", options.foxglove_port)
+            print(f"Foxglove: open {handle.url} in Foxglove (Open connection -> "
+                  f"Foxglove WebSocket)", flush=True)
+            handles.append(handle)
+    except Exception:
+        close_viewers(handles)
+        raise
+    return handles
+
+
+def close_viewers(handles: list[Any]) -> None:
+    for handle in reversed(handles):
+        handle.stop()
+
+
+def attach_to_demo(options: LiveOptions) -> Callable[[NavStack], Callable[[], None]]:
+    """The ``attach`` hook of :func:`~navstack.interfaces.demo.run_demo`: viewers served
+    from the demo's own stepping, paced at ``options.real_time_factor``."""
+    def attach(stack: NavStack) -> Callable[[], None]:
+        runner = LiveRunner(stack, real_time_factor=options.real_time_factor)
+        handles = open_viewers(runner, options)
+        runner.start_in_caller()
+
+        def detach() -> None:
+            close_viewers(handles)
+            runner.stop()
+
+        return detach
+
+    return attach
+
+
+def run_live(stack: NavStack, options: LiveOptions, duration: float | None = None) -> float:
+    """Run ``stack`` in real time with the requested viewers until Ctrl-C or ``duration``
+    simulated seconds; returns the simulated time reached."""
+    runner = LiveRunner(stack, real_time_factor=options.real_time_factor)
+    handles = open_viewers(runner, options)
+    end = None if duration is None else stack.now + duration
+    try:
+        runner.start()
+        while runner.running:
+            runner.wait(0.2)
+            if end is not None and runner.now >= end:
+                break
+    except KeyboardInterrupt:
+        pass
+    finally:
+        close_viewers(handles)
+        runner.stop()
+    if runner.error is not None:
+        raise runner.error
+    return runner.now
