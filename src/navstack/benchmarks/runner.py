@@ -18,6 +18,7 @@ SUITE_MODULES: dict[str, str] = {
     "slam-params": "navstack.benchmarks.slam_params",
     "localization": "navstack.benchmarks.localization",
     "recording": "navstack.benchmarks.recording",
+    "mppi": "navstack.benchmarks.mppi",
 }
 
 

@@ -17,6 +17,9 @@ from navstack.core.registry import PluginRegistry
 CONTROLLERS: PluginRegistry[str] = PluginRegistry("controller")
 CONTROLLERS.register("DWB", "navstack.control.dwb.dwb_controller:DWBLocalPlanner",
                      aliases=("dwb_core::DWBLocalPlanner", "dwb_core/DWBLocalPlanner"))
+CONTROLLERS.register("MPPI", "navstack.control.mppi.controller:MPPIController",
+                     aliases=("nav2_mppi_controller::MPPIController",
+                              "nav2_mppi_controller/MPPIController"))
 CONTROLLERS.register("RegulatedPurePursuit",
                      "navstack.control.rpp.controller:RegulatedPurePursuitController",
                      aliases=("nav2_regulated_pure_pursuit_controller::"

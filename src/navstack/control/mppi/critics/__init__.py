@@ -1,0 +1,64 @@
+"""MPPI critics (Nav2 ``mppi::critics``), one scoring term each.
+
+* :mod:`~navstack.control.mppi.critics.velocity` — Constraint, PreferForward,
+  Twirling, VelocityDeadband;
+* :mod:`~navstack.control.mppi.critics.goal` — Goal, GoalAngle;
+* :mod:`~navstack.control.mppi.critics.collision` — Cost, Obstacles;
+* :mod:`~navstack.control.mppi.critics.path` — PathAlign, PathFollow, PathAngle.
+
+:func:`load_critics` builds the ``critics`` list of a controller's parameters, in order
+(Nav2 ``CriticManager::loadCritics``); disabled critics are kept but score nothing.
+"""
+
+from __future__ import annotations
+
+from navstack.control.mppi.critics.base import Critic, CriticData, RobotShape
+from navstack.control.mppi.critics.collision import CostCritic, ObstaclesCritic
+from navstack.control.mppi.critics.goal import GoalAngleCritic, GoalCritic
+from navstack.control.mppi.critics.path import (
+    PathAlignCritic,
+    PathAngleCritic,
+    PathFollowCritic,
+)
+from navstack.control.mppi.critics.velocity import (
+    ConstraintCritic,
+    PreferForwardCritic,
+    TwirlingCritic,
+    VelocityDeadbandCritic,
+)
+from navstack.control.mppi.models import MotionModel
+from navstack.control.mppi.params import MPPIParams
+
+CRITICS: dict[str, type[Critic]] = {
+    cls.name: cls for cls in (
+        ConstraintCritic, CostCritic, ObstaclesCritic, GoalCritic, GoalAngleCritic,
+        PathAlignCritic, PathFollowCritic, PathAngleCritic, PreferForwardCritic,
+        TwirlingCritic, VelocityDeadbandCritic)
+}
+"""Nav2 critic class name -> navstack critic."""
+
+
+def load_critics(params: MPPIParams, model: MotionModel, shape: RobotShape) -> list[Critic]:
+    """The critics named in ``params.critics``, configured from their sections."""
+    return [CRITICS[name](params.critic(name), params, model, shape)
+            for name in params.critics]
+
+
+__all__ = [
+    "CRITICS",
+    "ConstraintCritic",
+    "CostCritic",
+    "Critic",
+    "CriticData",
+    "GoalAngleCritic",
+    "GoalCritic",
+    "ObstaclesCritic",
+    "PathAlignCritic",
+    "PathAngleCritic",
+    "PathFollowCritic",
+    "PreferForwardCritic",
+    "RobotShape",
+    "TwirlingCritic",
+    "VelocityDeadbandCritic",
+    "load_critics",
+]

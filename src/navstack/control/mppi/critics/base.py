@@ -1,0 +1,100 @@
+"""Critic plumbing: the batch every critic scores and the critic base class.
+
+Nav2's ``CriticManager`` calls each critic's ``score(CriticData&)`` in the order of the
+``critics`` list; a critic adds its term to ``data.costs`` (one cost per sampled
+trajectory) and a collision critic may set ``data.fail_flag`` when every trajectory
+collides, which stops the remaining critics and makes the optimizer fall back.  The
+same contract here: :class:`CriticData` holds the batch (arrays laid out ``(channel,
+time, sample)``), :meth:`Critic.score` adds to ``data.costs`` through a ``numba`` kernel
+that loops over time outside and samples inside.
+
+State velocities: the velocity of step 0 is the robot's (``data.state[3:]``), the
+velocity of step ``t >= 1`` is the clamped control ``t - 1`` (``data.controls[:, t-1]``),
+exactly Nav2's ``state.vx`` / ``state.cvx`` relation.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.control.mppi.critic_params import CriticParams
+from navstack.control.mppi.models import MotionModel
+from navstack.core.polygon import Footprint
+from navstack.costmap.costmap_2d import Costmap2D
+
+FloatArray = NDArray[np.float64]
+Float32Array = NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class RobotShape:
+    """Footprint outline ``(N, 2)`` [m] and its inscribed/circumscribed radii [m]."""
+
+    polygon: FloatArray
+    inscribed_radius: float
+    circumscribed_radius: float
+
+    @staticmethod
+    def from_footprint(footprint: Footprint | None) -> RobotShape:
+        """A point robot (radii 0) when no footprint is given."""
+        if footprint is None:
+            return RobotShape(np.zeros((1, 2)), 0.0, 0.0)
+        return RobotShape(np.ascontiguousarray(footprint.polygon, dtype=np.float64),
+                          float(footprint.inscribed_radius),
+                          float(footprint.circumscribed_radius))
+
+
+@dataclass
+class CriticData:
+    """One iteration's batch (Nav2 ``CriticData``).
+
+    ``state`` (6,) robot x, y, yaw, vx, vy, wz; ``controls`` and ``trajectories``
+    (3, T, B) float32; ``arc`` (B,) travelled lengths; ``costs`` (B,) accumulated
+    scores; ``path`` (M, 3) pruned plan and ``path_valid`` (M,) its collision-free
+    points; ``goal`` (3,) the plan's last pose and ``goal_distance`` the robot's distance
+    to it.  ``fail`` / ``failed_by`` report an all-colliding batch.
+    """
+
+    state: FloatArray
+    controls: Float32Array
+    trajectories: Float32Array
+    arc: FloatArray
+    costs: FloatArray
+    model_dt: float
+    model: MotionModel
+    path: FloatArray
+    path_valid: NDArray[np.bool_]
+    goal: FloatArray
+    goal_distance: float
+    costmap: Costmap2D
+    track_unknown: bool
+    fail: bool = False
+    failed_by: str = ""
+    furthest_reached_path_point: int | None = None
+
+
+class Critic(ABC):
+    """A scoring term: ``score(data)`` adds ``(weight * raw) ** power`` per sample."""
+
+    #: the Nav2 class name, as written in ``critics``
+    name: ClassVar[str]
+
+    def __init__(self, params: CriticParams, controller: Any, model: MotionModel,
+                 shape: RobotShape) -> None:
+        self.params = params
+        self.controller_params = controller
+        self.model = model
+        self.shape = shape
+
+    @property
+    def enabled(self) -> bool:
+        return self.params.enabled
+
+    @abstractmethod
+    def score(self, data: CriticData) -> None:
+        """Add this critic's term to ``data.costs`` (may set ``data.fail``)."""
