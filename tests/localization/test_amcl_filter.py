@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from navstack.core.errors import ConfigError
 from navstack.localization.amcl import (
     AmclFilter,
     AmclParams,
@@ -142,3 +143,36 @@ def test_one_update_with_2000_particles_and_60_beams_within_budget() -> None:
         if i >= 10:  # first calls load the numba cache
             times.append(f.last_update_ms)
     assert float(np.median(times)) <= 5.0
+
+
+def test_recovery_averages_follow_the_per_beam_likelihood_of_a_product_model() -> None:
+    """Weights use the full likelihood; w_avg = sum_i w_i p_i^(1/factors)."""
+    pf = _pf(slow=0.5, fast=0.5)
+    pf._reset(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    ll = np.array([-100.0, -120.0])
+    w_avg = pf.update_weights(ll, factors=100)
+    assert pf.weights[1] / pf.weights[0] == pytest.approx(math.exp(-20.0), rel=1e-9)
+    assert w_avg == pytest.approx(0.5 * math.exp(-1.0) + 0.5 * math.exp(-1.2), rel=1e-12)
+    assert pf.w_slow == pf.w_fast == pytest.approx(w_avg)
+
+
+def test_tempered_update_softens_the_weights_but_not_the_recovery_averages() -> None:
+    pf = _pf(slow=0.5, fast=0.5)
+    pf._reset(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    w_avg = pf.update_weights(np.array([-100.0, -120.0]), factors=100, temper=0.25)
+    assert pf.weights[1] / pf.weights[0] == pytest.approx(math.exp(-5.0), rel=1e-9)
+    assert w_avg == pytest.approx(0.5 * math.exp(-1.0) + 0.5 * math.exp(-1.2), rel=1e-12)
+
+
+def test_global_initialisation_anneals_the_configured_number_of_updates() -> None:
+    world = load_world("office")
+    params = AmclParams(global_localization_anneal_updates=3, max_particles=3000,
+                        laser_model_type="likelihood_field_prob")
+    f = AmclFilter(params, np.random.default_rng(0))
+    f.set_map(world.to_occupancy_grid())
+    f.initialize_global()
+    assert f.anneal_left == 3
+    f.initialize_pose([3.0, 3.0, 0.0], np.diag([0.1, 0.1, 0.05]))
+    assert f.anneal_left == 0  # a known pose is never tempered
+    with pytest.raises(ConfigError, match="global_localization_anneal_updates"):
+        AmclParams.from_mapping({"global_localization_anneal_updates": -1})

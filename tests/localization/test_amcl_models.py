@@ -196,3 +196,20 @@ def test_maps_amcl_cannot_use_are_refused() -> None:
                               "grid whose data has height * width values")
     empty = AmclMap.from_occupancy_grid(grid, 2.0)
     assert (empty.occ_dist == 2.0).all() and len(empty.free_cells) == 400
+
+
+def test_likelihood_field_reads_both_faces_of_a_wall_alike() -> None:
+    """A one-cell wall (row 10: y 1.0..1.1) seen from the south (end point on y = 1.0)
+    and from the north (y = 1.1): both end points lie half a cell from the wall's cell
+    centres, so both read the mean of the table at z = 0 and z = 0.1 (bilinear between
+    cell centres).  Reading the cell an end point falls in would give z = 0 from one side
+    and z = 0.1 from the other: a half-cell pull in corridors."""
+    wall = [(10, c) for c in range(20)]
+    params = AmclParams(laser_likelihood_max_dist=1.0)
+    model = LaserModel(params, AmclMap.from_occupancy_grid(_grid(wall), 1.0))
+    beam = LaserData(np.array([0.5]), np.array([0.0]), (0.0, 0.0), 10.0, 0)
+    from_south = model.log_likelihood(np.array([[1.05, 0.5, math.pi / 2]]), beam)[0]
+    from_north = model.log_likelihood(np.array([[1.05, 1.6, -math.pi / 2]]), beam)[0]
+    pz = [0.5 * math.exp(-z * z / 0.08) + 0.05 for z in (0.0, 0.1)]
+    assert from_south == pytest.approx(from_north, abs=1e-12)
+    assert from_south == pytest.approx(math.log(1.0 + (pz[0] ** 3 + pz[1] ** 3) / 2), rel=1e-9)

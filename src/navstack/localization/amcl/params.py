@@ -15,6 +15,16 @@ Where navstack interprets a value (Nav2 leaves it implicit):
 * ``random_seed`` (Nav2 Kilted+): ``-1`` seeds from the operating system; any other value
   makes the filter reproducible.  A node given an explicit ``numpy.random.Generator``
   uses that instead.
+
+navstack's own addition (not in Nav2; 0 keeps Nav2's behaviour):
+
+* ``global_localization_anneal_updates``: after a global (uniform) initialisation the
+  first N measurement updates use the likelihood raised to ``k / (N + 1)`` (k = 1..N),
+  then the full likelihood.  With a sharp product likelihood the first update otherwise
+  concentrates all particles on whichever look-alike place one particle happened to fit
+  best, before any particle near the truth has been refined by the next scans; annealing
+  (Neal, "Annealed importance sampling", 2001) keeps the competing hypotheses alive for
+  those few updates.
 """
 
 from __future__ import annotations
@@ -102,6 +112,7 @@ class AmclParams(Params):
     first_map_only: bool = False
     freespace_downsampling: bool = False
     random_seed: int = -1
+    global_localization_anneal_updates: int = Field(0, ge=0)
 
     @field_validator("robot_model_type")
     @classmethod

@@ -292,19 +292,33 @@ class ParticleFilter:
         self.poses = poses
         self._invalidate()
 
-    def update_weights(self, log_likelihood: FloatArray) -> float:
+    def update_weights(self, log_likelihood: FloatArray, factors: int = 1,
+                       temper: float = 1.0) -> float:
         """Multiply the weights by the measurement likelihoods (given as logs), normalise,
-        and feed the recovery averages; returns the average likelihood ``sum w_i p_i``."""
-        logw = np.log(np.maximum(self.weights, 1e-300)) + log_likelihood
-        top = float(logw.max())
+        and feed the recovery averages; returns the average ``sum w_i p_i^(1/factors)``.
+
+        ``factors``: how many independent per-beam factors the likelihood is a product of
+        (``likelihood_field_prob``); the recovery averages then follow the per-beam
+        geometric mean.  A product of 100 beams swings by orders of magnitude from one
+        ordinary scan to the next, so ``w_fast`` falls below ``w_slow`` all the time and
+        random particles are injected into a well-localized filter; per beam the scale is
+        stable and only a real mismatch (a kidnap) drops it.  The cube-sum models are one
+        bounded score per scan (``factors`` 1, amcl's averages).  ``temper`` scales the
+        log-likelihood of the weights only (annealing), never the recovery averages.
+        """
+        logw = np.log(np.maximum(self.weights, 1e-300))
+        log_post = logw + log_likelihood * temper
+        top = float(log_post.max())
         if not math.isfinite(top):  # every particle impossible: start over evenly
             self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
             self._invalidate()
             return 0.0
-        w = np.exp(logw - top)
-        total = float(w.sum())
-        self.weights = w / total
-        w_avg = total * math.exp(top) if top < 700.0 else math.inf
+        w = np.exp(log_post - top)
+        self.weights = w / float(w.sum())
+        log_avg = logw + log_likelihood / max(factors, 1)
+        peak = float(log_avg.max())
+        w_avg = float(np.exp(log_avg - peak).sum()) * math.exp(peak) if peak < 700.0 \
+            else math.inf
         if 0.0 < w_avg < math.inf:
             self.w_slow = w_avg if self.w_slow == 0.0 else \
                 self.w_slow + self.alpha_slow * (w_avg - self.w_slow)
@@ -410,6 +424,7 @@ class AmclFilter:
         self.map: AmclMap | None = None
         self.laser: LaserModel | None = None
         self.resample_count = 0
+        self.anneal_left = 0
         self.last_update_ms = 0.0
 
     def set_map(self, grid: OccupancyGrid) -> None:
@@ -425,11 +440,14 @@ class AmclFilter:
         """Particles around a known pose (``covariance`` 3x3 over x, y, yaw)."""
         self.pf.init_gaussian(mean, covariance)
         self.resample_count = 0
+        self.anneal_left = 0
 
     def initialize_global(self) -> None:
-        """Particles uniform over the map's free space (needs a map)."""
+        """Particles uniform over the map's free space (needs a map); the next
+        ``global_localization_anneal_updates`` updates are tempered."""
         self.pf.init_uniform()
         self.resample_count = 0
+        self.anneal_left = self.params.global_localization_anneal_updates
 
     def update(self, odom_pose: ArrayLike, delta: ArrayLike | None,
                scan: LaserData) -> bool:
@@ -443,7 +461,13 @@ class AmclFilter:
         if delta is not None:
             pf.set_poses(self.motion.sample(pf.poses, np.asarray(odom_pose, np.float64),
                                             np.asarray(delta, np.float64), self.rng))
-        pf.update_weights(self.laser.log_likelihood(pf.poses, scan, pf.converged))
+        log_likelihood = self.laser.log_likelihood(pf.poses, scan, pf.converged)
+        temper = 1.0
+        if self.anneal_left > 0:  # tempered updates after a global initialisation
+            n = self.params.global_localization_anneal_updates
+            temper = (n + 1 - self.anneal_left) / (n + 1)
+            self.anneal_left -= 1
+        pf.update_weights(log_likelihood, self.laser.factors, temper)
         self.resample_count += 1
         resampled = self.resample_count % self.params.resample_interval == 0
         if resampled:

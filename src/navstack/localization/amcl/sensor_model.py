@@ -156,17 +156,48 @@ def prepare_scan(ranges: NDArray[np.floating], angle_min: float, angle_increment
 
 
 # --- numba kernels -------------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def _cell_value(table: FloatArray, i: int, j: int, off_map: float) -> float:
+    h, w = table.shape
+    if i < 0 or j < 0 or i >= w or j >= h:
+        return off_map
+    return float(table[j, i])
+
+
+@numba.njit(cache=True)
+def _bilinear(table: FloatArray, gx: float, gy: float, off_map: float) -> float:
+    """``table`` bilinearly interpolated between cell centres at the grid point
+    ``(gx, gy)`` (cell units from the map origin); neighbours off the map count as
+    ``off_map``.
+
+    amcl reads the value of the cell an end point falls in.  With the obstacle distance
+    measured between cell centres that biases the estimate by up to half a cell: an end
+    point on a wall face that is a cell boundary reads 0 from one side and one cell from
+    the other, so a corridor's two walls pull unequally.  Interpolating between the
+    centres makes the two faces of a wall symmetric (docs/localization.md)."""
+    u = gx - 0.5
+    v = gy - 0.5
+    i0 = math.floor(u)
+    j0 = math.floor(v)
+    fx = u - i0
+    fy = v - j0
+    a = _cell_value(table, i0, j0, off_map)
+    b = _cell_value(table, i0 + 1, j0, off_map)
+    c = _cell_value(table, i0, j0 + 1, off_map)
+    d = _cell_value(table, i0 + 1, j0 + 1, off_map)
+    return (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
+
+
 @numba.njit(cache=True)
 def _field_sum(poses: FloatArray, lx: float, ly: float, bx: FloatArray, by: FloatArray,
                table: FloatArray, off_map: float) -> FloatArray:
-    """Per particle, ``sum_j table[cell of end point j]`` (``off_map`` off the grid).
+    """Per particle, ``sum_j table(end point j)`` (:func:`_bilinear`).
 
     ``table`` holds a per-cell function of the clamped obstacle distance (``pz^3`` or
-    ``log pz``), so a beam costs one lookup; poses, laser offset ``(lx, ly)`` and end
-    points ``(bx, by)`` (laser-relative, base-frame axes) are in cell units relative to
-    the map origin, and each particle needs one sin/cos."""
+    ``log pz``), so a beam costs four lookups and no exponential; poses, laser offset
+    ``(lx, ly)`` and end points ``(bx, by)`` (laser-relative, base-frame axes) are in cell
+    units relative to the map origin, and each particle needs one sin/cos."""
     n, b = poses.shape[0], bx.shape[0]
-    h, w = table.shape
     out = np.empty(n)
     for i in range(n):
         c, s = math.cos(poses[i, 2]), math.sin(poses[i, 2])
@@ -174,12 +205,8 @@ def _field_sum(poses: FloatArray, lx: float, ly: float, bx: FloatArray, by: Floa
         sy = poses[i, 1] + s * lx + c * ly
         total = 0.0
         for j in range(b):
-            mi = math.floor(sx + c * bx[j] - s * by[j])
-            mj = math.floor(sy + s * bx[j] + c * by[j])
-            if mi < 0 or mj < 0 or mi >= w or mj >= h:
-                total += off_map
-            else:
-                total += table[mj, mi]
+            total += _bilinear(table, sx + c * bx[j] - s * by[j], sy + s * bx[j] + c * by[j],
+                               off_map)
         out[i] = total
     return out
 
@@ -200,14 +227,13 @@ def _field_matrix(poses: FloatArray, lx: float, ly: float, bx: FloatArray, by: F
         sx = poses[i, 0] + c * lx - s * ly
         sy = poses[i, 1] + s * lx + c * ly
         for j in range(b):
-            mi = math.floor(sx + c * bx[j] - s * by[j])
-            mj = math.floor(sy + s * bx[j] + c * by[j])
-            if mi < 0 or mj < 0 or mi >= w or mj >= h:
-                out[i, j] = off_map
-            else:
-                out[i, j] = table[mj, mi]
-                if near[mj, mi]:
-                    agree[j] += 1
+            gx = sx + c * bx[j] - s * by[j]
+            gy = sy + s * bx[j] + c * by[j]
+            out[i, j] = _bilinear(table, gx, gy, off_map)
+            mi = math.floor(gx)
+            mj = math.floor(gy)
+            if 0 <= mi < w and 0 <= mj < h and near[mj, mi]:
+                agree[j] += 1
     return out, agree
 
 
@@ -288,12 +314,15 @@ class LaserModel:
     in log space whatever the number of beams.  The likelihood field's per-cell ``pz``
     depends only on the cell (and the scan's ``range_max`` through ``z_rand``), so it is
     tabulated once per ``range_max``.  After a ``likelihood_field_prob`` update
-    ``skipped_beams`` and ``beamskip_error`` tell what beam skipping did.
+    ``skipped_beams`` and ``beamskip_error`` tell what beam skipping did, and
+    ``factors`` how many per-beam factors the product had (1 for the cube-sum models,
+    whose ``1 + sum pz^3`` is one bounded score per scan).
     """
 
     def __init__(self, params: AmclParams, amcl_map: AmclMap) -> None:
         self.params = params
         self.map = amcl_map
+        self.factors = 1
         self.skipped_beams = 0
         self.beamskip_error = False
         self._tables: dict[float, tuple[FloatArray, float]] = {}
@@ -353,6 +382,7 @@ class LaserModel:
             return np.log1p(_field_sum(grid_poses, lx * inv, ly * inv, bx, by, table, off_map))
         log_pz, agree = _field_matrix(grid_poses, lx * inv, ly * inv, bx, by, table, off_map,
                                       self._near)
+        self.factors = max(int(log_pz.shape[1]), 1)
         if not (p.do_beamskip and converged) or len(poses) == 0:
             return log_pz.sum(axis=1)
         use = agree / len(poses) > p.beam_skip_threshold
@@ -361,4 +391,5 @@ class LaserModel:
         if skipped >= len(use) * p.beam_skip_error_threshold:
             self.beamskip_error = True  # most beams disagree: probably converged wrongly
             return log_pz.sum(axis=1)
+        self.factors = max(int(np.count_nonzero(use)), 1)
         return log_pz[:, use].sum(axis=1)
