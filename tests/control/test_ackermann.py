@@ -47,7 +47,7 @@ def test_turning_on_the_spot_is_refused_not_guessed() -> None:
 
 
 def test_bad_geometry_names_the_parameter() -> None:
-    with pytest.raises(ConfigError, match="wheel_base: must be positive, got 0.0"):
+    with pytest.raises(ConfigError, match=r"wheel_base: must be positive, got 0\.0"):
         ackermann_steering(1.0, 0.1, 0.0, W)
     with pytest.raises(ConfigError, match="max_steering_angle"):
         ackermann_steering(1.0, 0.1, L, W, max_steering_angle=2.0)
