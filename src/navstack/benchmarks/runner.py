@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import importlib
+import inspect
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from navstack.benchmarks.common import BenchResult, default_data_dir
-from navstack.core.errors import UnknownNameError
+from navstack.core.errors import ConfigError, UnknownNameError
 
-# suite name -> module exposing run(quick, data_dir) -> BenchResult
+# suite name -> module exposing run(quick, data_dir, **options) -> BenchResult
 SUITE_MODULES: dict[str, str] = {
     "sim": "navstack.benchmarks.sim",
     "planners": "navstack.benchmarks.planners",
@@ -22,13 +25,35 @@ SUITE_MODULES: dict[str, str] = {
 }
 
 
+class SuiteOptionError(ConfigError):
+    """A suite was given an option its ``run`` does not take (e.g. ``--controller`` for
+    a suite that runs no controller)."""
+
+
 def available_suites() -> list[str]:
     return sorted(SUITE_MODULES)
 
 
-def run_suite(name: str, quick: bool = False, data_dir: Path | None = None) -> BenchResult:
+def run_suite(name: str, quick: bool = False, data_dir: Path | None = None,
+              options: Mapping[str, Any] | None = None) -> BenchResult:
+    """Run suite ``name``; ``options`` are passed to its ``run`` as keyword arguments.
+
+    An option the suite's ``run`` does not accept is a :class:`SuiteOptionError` naming
+    the suites that do, rather than silently ignored.
+    """
     module = SUITE_MODULES.get(name)
     if module is None:
         raise UnknownNameError("benchmark suite", name, SUITE_MODULES)
-    result: BenchResult = importlib.import_module(module).run(quick, data_dir or default_data_dir())
+    run = importlib.import_module(module).run
+    kwargs = dict(options or {})
+    accepted = set(inspect.signature(run).parameters)
+    for key in kwargs:
+        if key not in accepted:
+            takers = [s for s, m in SUITE_MODULES.items()
+                      if key in inspect.signature(importlib.import_module(m).run).parameters]
+            raise SuiteOptionError(
+                f"benchmark suite '{name}' has no option '{key}'", key_path=key,
+                suggestion=f"suites that take it: {', '.join(takers)}" if takers
+                else "no suite takes it")
+    result: BenchResult = run(quick, data_dir or default_data_dir(), **kwargs)
     return result
