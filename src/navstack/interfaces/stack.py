@@ -121,7 +121,7 @@ class NavStack:
                                          ros_parameters(nav, "local_costmap", file=file),
                                          self.footprint, file)
         self.planner = PlannerServer(rt, ros_parameters(nav, "planner_server", file=file),
-                                     self.global_costmap, file)
+                                     self.global_costmap, file, footprint=self.footprint)
         self.controller = ControllerServer(
             rt, ros_parameters(nav, "controller_server", file=file), self.local_costmap,
             self.footprint, file)

@@ -9,6 +9,7 @@ result is also published on ``/plan``.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -28,6 +29,7 @@ from navstack.core.errors import (
 )
 from navstack.core.msgs import Path, Pose2D, PoseStamped
 from navstack.core.params import Params
+from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.messages import (
@@ -68,7 +70,10 @@ class PlannerServer(Node):
     """ComputePathToPose on the global costmap with the configured planner plugins."""
 
     def __init__(self, runtime: Runtime, params: Mapping[str, Any], global_costmap: CostmapNode,
-                 file: str = "", name: str = "planner_server") -> None:
+                 file: str = "", name: str = "planner_server",
+                 footprint: Footprint | None = None) -> None:
+        """``footprint`` goes to planners that check the robot's body (Smac Hybrid-A*
+        takes the costmap's footprint, as Nav2's planners do)."""
         super().__init__(name, runtime)
         server = {k: v for k, v in params.items() if k in _KNOWN}
         self.params = PlannerServerParams.from_mapping(server, file=file, key_path=name)
@@ -78,8 +83,10 @@ class PlannerServer(Node):
             plugin, section = plugin_section(params, pname, "nav2_navfn_planner/NavfnPlanner",
                                              file=file, key_path=name)
             cls = load_class(PLANNERS, plugin, file=file, key_path=f"{name}.{pname}")
+            extra = ({"footprint": footprint} if footprint is not None
+                     and "footprint" in inspect.signature(cls).parameters else {})
             self.planners[pname] = build_plugin(cls, section, file=file,
-                                                key_path=f"{name}.{pname}")
+                                                key_path=f"{name}.{pname}", **extra)
         self.plans_computed = 0
         self.last_path: Path | None = None
 
