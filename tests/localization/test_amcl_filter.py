@@ -61,7 +61,8 @@ def test_kld_shrinks_a_converged_set_and_keeps_a_spread_one() -> None:
 def test_clusters_pick_the_heaviest_hypothesis_with_a_circular_yaw_mean() -> None:
     """Two groups: 300 particles at (2, 2) with yaws around +-pi (weight 0.7) and 100 at
     (8, 8) heading 0 (weight 0.3).  The estimate is the first group's mean with yaw pi
-    (not the arithmetic mean ~0); the covariance is that of the whole set."""
+    (not the arithmetic mean ~0); the covariance is that group's spread, not the whole
+    set's (which counts the distance between the two hypotheses)."""
     pf = _pf()
     rng = np.random.default_rng(5)
     a = np.column_stack((2 + 0.05 * rng.standard_normal(300), 2 + 0.05 * rng.standard_normal(300),
@@ -78,8 +79,10 @@ def test_clusters_pick_the_heaviest_hypothesis_with_a_circular_yaw_mean() -> Non
     assert mean[:2] == pytest.approx(a[:, :2].mean(axis=0))
     assert abs(abs(mean[2]) - math.pi) < 0.01
     assert clusters[0].covariance[2, 2] == pytest.approx(0.02 ** 2, rel=0.01)
-    # whole-set x variance: 0.7 * 0.3 * 6^2 (between groups) + the small within spread
-    assert cov[0, 0] == pytest.approx(0.21 * 36, rel=0.01)
+    assert cov == pytest.approx(clusters[0].covariance)
+    assert cov[0, 0] == pytest.approx(np.var(a[:, 0]), rel=1e-9)
+    # the whole set's x variance: 0.7 * 0.3 * 6^2 between the groups + the small spread
+    assert pf.set_statistics()[1][0, 0] == pytest.approx(0.21 * 36, rel=0.01)
 
 
 def test_gaussian_initialisation_and_rejection() -> None:

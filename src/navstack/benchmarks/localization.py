@@ -4,7 +4,8 @@ All runs are in the built-in simulator with fixed seeds (AMCL's ``random_seed`` 
 AMCL uses the packaged ``amcl:`` section throughout (docs/localization.md):
 
 * ``amcl_rmse_m`` / ``amcl_rmse_deg``: the office waypoint route (looped to
-  :data:`TRACK_S` of simulated time) with ``NavStack(..., amcl=True)`` -- navigation runs on
+  :data:`TRACK_S` of simulated time, once per AMCL seed in :data:`TRACK_SEEDS`, samples
+  pooled) with ``NavStack(..., amcl=True)`` -- navigation runs on
   AMCL's ``map -> odom`` -- from the known spawn pose; every 0.5 s ``map -> base_link`` at
   the newest odometry stamp against the simulator's true pose at that stamp.
   ``amcl_nees_inside``: share of those samples whose NEES (x, y, yaw; AMCL's covariance)
@@ -41,6 +42,8 @@ from navstack.core.geometry import normalize_angle
 from navstack.localization.consistency import nees, nees_band
 
 TRACK_S = 300.0
+#: AMCL seeds of the tracking runs (one 5-minute run each, samples pooled)
+TRACK_SEEDS = (1, 2, 3)
 GLOBAL_TRIALS = 20
 GLOBAL_LIMIT_S = 30.0
 KIDNAP_TRIALS = 10
@@ -63,7 +66,7 @@ HOLD_S = 5.0
 def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
     """All localization measurements (``--quick``: shorter runs, fewer trials)."""
     result = BenchResult("localization")
-    _amcl_tracking(result, 60.0 if quick else TRACK_S)
+    _amcl_tracking(result, 60.0 if quick else TRACK_S, (1,) if quick else TRACK_SEEDS)
     _global_localization(result, 4 if quick else GLOBAL_TRIALS)
     _kidnap(result, 2 if quick else KIDNAP_TRIALS)
     _amcl_speed(result, 30 if quick else 200)
@@ -83,7 +86,26 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
 
 # --- AMCL -------------------------------------------------------------------------------
 def _amcl_tracking(result: BenchResult, duration: float,
-                   overrides: dict[str, Any] | None = None) -> None:
+                   seeds: tuple[int, ...] = TRACK_SEEDS) -> None:
+    """The tracking runs, one per AMCL seed, with errors and covariances pooled."""
+    errors: list[tuple[float, float, float]] = []
+    covs: list[np.ndarray] = []
+    for seed in seeds:
+        case = _track_once(duration, seed, errors, covs)
+        result.cases.append(case)
+    err = np.array(errors)
+    m = result.metrics
+    m["amcl_rmse_m"] = float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2)))
+    m["amcl_rmse_deg"] = float(np.degrees(np.sqrt(np.mean(err[:, 2] ** 2))))
+    band = nees_band(nees(err, np.array(covs)), dof=3)
+    m["amcl_nees_inside"] = band.inside
+    result.cases.append({"run": "amcl tracking (pooled)", "samples": len(err),
+                         "nees_above": band.above, "nees_below": band.below})
+
+
+def _track_once(duration: float, seed: int, errors: list[tuple[float, float, float]],
+                covs: list[np.ndarray]) -> dict[str, Any]:
+    """One office route run on AMCL (``random_seed`` = ``seed``); appends the samples."""
     from navstack.benchmarks.ekf_campus import TruthHistory
     from navstack.core.msgs import Odometry
     from navstack.interfaces.api import Navigator
@@ -91,18 +113,16 @@ def _amcl_tracking(result: BenchResult, duration: float,
     from navstack.interfaces.stack import NavStack
     from navstack.navigation.waypoint_follower import load_waypoints
 
-    stack = NavStack("office", "diff_drive", seed=1, amcl=overrides or True)
+    stack = NavStack("office", "diff_drive", seed=1, amcl={"random_seed": seed})
     assert stack.amcl is not None
     amcl = stack.amcl
     nav = Navigator(stack)
-    errors: list[tuple[float, float, float]] = []
-    covs: list[np.ndarray] = []
-
     truth = TruthHistory()
     stack.runtime.bus.subscribe("/ground_truth", Odometry, truth.add)
     odom_stamps: list[float] = []
     stack.runtime.bus.subscribe("/odom", Odometry,
                                 lambda m: odom_stamps.append(float(m.header.stamp)))
+    first = len(errors)
 
     def sample() -> None:
         # map -> base_link at the newest odometry stamp, against the truth at that stamp
@@ -123,13 +143,12 @@ def _amcl_tracking(result: BenchResult, duration: float,
 
     stack.runtime.scheduler.create_timer(0.5, sample, first_at=stack.now + 0.5)
     route = load_waypoints(default_waypoints_path())
-    reached = failed = 0
+    reached = 0
     while stack.now < duration:
         for _, pose in route:
             if stack.now >= duration:
                 break
             if not nav.goToPose(pose):
-                failed += 1
                 continue
             start = stack.now
             while not nav.isTaskComplete():
@@ -137,16 +156,13 @@ def _amcl_tracking(result: BenchResult, duration: float,
                     nav.cancelTask()
             reached += int(nav.getTaskResult() is not None
                            and not nav.getTaskResult().error_msg)  # type: ignore[union-attr]
-    err = np.array(errors)
-    m = result.metrics
-    m["amcl_rmse_m"] = float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2)))
-    m["amcl_rmse_deg"] = float(np.degrees(np.sqrt(np.mean(err[:, 2] ** 2))))
-    band = nees_band(nees(err, np.array(covs)), dof=3)
-    m["amcl_nees_inside"] = band.inside
-    result.cases.append({"run": "amcl tracking", "sim_s": stack.now, "samples": len(err),
-                         "goals_reached": reached, "collisions": stack.sim.sim.collisions,
-                         "nees_above": band.above, "nees_below": band.below,
-                         "updates": amcl.updates})
+    err = np.array(errors[first:])
+    band = nees_band(nees(err, np.array(covs[first:])), dof=3)
+    return {"run": f"amcl tracking, seed {seed}", "sim_s": round(stack.now, 2),
+            "samples": len(err), "goals_reached": reached,
+            "collisions": stack.sim.sim.collisions,
+            "rmse_m": round(float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), 4),
+            "nees_inside": round(band.inside, 3), "updates": amcl.updates}
 
 
 def _amcl_sim(seed: int, spawn: tuple[float, float, float], params: dict[str, Any]

@@ -398,11 +398,18 @@ class ParticleFilter:
         return self._set_stats
 
     def estimate(self) -> tuple[FloatArray, FloatArray]:
-        """``(mean of the heaviest cluster (3,), covariance of the set (3, 3))``."""
+        """``(mean (3,), covariance (3, 3))`` of the heaviest cluster.
+
+        amcl publishes the heaviest cluster's mean with the covariance of the whole set.
+        The estimate is that cluster's mean, so its uncertainty is that cluster's
+        spread: the set covariance also counts the other hypotheses and every randomly
+        injected particle (recovery), which made it metres wide while the estimate was
+        centimetres off (docs/localization.md).  With one cluster the two are equal.
+        """
         clusters = self.clusters()
         if not clusters:
             return np.full(3, np.nan), np.full((3, 3), np.nan)
-        return clusters[0].mean.copy(), self.set_statistics()[1].copy()
+        return clusters[0].mean.copy(), clusters[0].covariance.copy()
 
 
 class AmclFilter:
