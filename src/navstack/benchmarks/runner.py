@@ -22,6 +22,7 @@ SUITE_MODULES: dict[str, str] = {
     "localization": "navstack.benchmarks.localization",
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
+    "hybrid": "navstack.benchmarks.hybrid",
 }
 
 

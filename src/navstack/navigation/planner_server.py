@@ -85,8 +85,11 @@ class PlannerServer(Node):
             cls = load_class(PLANNERS, plugin, file=file, key_path=f"{name}.{pname}")
             extra = ({"footprint": footprint} if footprint is not None
                      and "footprint" in inspect.signature(cls).parameters else {})
-            self.planners[pname] = build_plugin(cls, section, file=file,
-                                                key_path=f"{name}.{pname}", **extra)
+            planner = build_plugin(cls, section, file=file, key_path=f"{name}.{pname}",
+                                   **extra)
+            if hasattr(planner, "set_costmap_source"):  # footprint + inflation (Smac)
+                planner.set_costmap_source(global_costmap.layered)
+            self.planners[pname] = planner
         self.plans_computed = 0
         self.last_path: Path | None = None
 

@@ -33,6 +33,9 @@ PLANNERS.register("Navfn", "navstack.planning.navfn:NavfnPlanner",
 PLANNERS.register("CostAwareAStar", "navstack.planning.astar:CostAwareAStar",
                   aliases=("nav2_smac_planner/SmacPlanner2D",
                            "nav2_smac_planner::SmacPlanner2D"))
+PLANNERS.register("SmacPlannerHybrid", "navstack.planning.hybrid_astar.planner:HybridAStar",
+                  aliases=("nav2_smac_planner::SmacPlannerHybrid",
+                           "nav2_smac_planner/SmacPlannerHybrid"))
 PLANNERS.register("ThetaStarPlanner", "navstack.planning.theta_star:ThetaStarPlanner",
                   aliases=("nav2_theta_star_planner/ThetaStarPlanner",
                            "nav2_theta_star_planner::ThetaStarPlanner"))

@@ -1,0 +1,105 @@
+"""Conservative footprint cell sets, the possibly-inscribed cost, and the smoother."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navstack.costmap.inflation_kernel import cost_lut
+from navstack.planning.hybrid_astar.collision import (
+    HEADING_SLACK,
+    POSE_SLACK,
+    FootprintCells,
+    cheb_to_polygon,
+    possible_collision_cost,
+)
+from navstack.planning.hybrid_astar.motion import build_motion_table
+from navstack.planning.hybrid_astar.smoother import (
+    _descend,
+    _solve,
+    curvatures,
+    segments,
+)
+from tests.planning.hybrid_astar.helpers import RES, ROBOT
+
+
+def test_cell_sets_cover_every_pose_they_stand_for() -> None:
+    """Any pose within the slack of a cell centre and bin overlaps only set cells."""
+    bins = 72
+    cells = FootprintCells(ROBOT.polygon, RES, bins)
+    poly = ROBOT.polygon / RES
+    rng = np.random.default_rng(2)
+    for b in (0, 7, 18, 41, 63):
+        have = {(int(x), int(y)) for x, y in zip(cells.off_x[cells.starts[b]:cells.starts[b + 1]],
+                                                   cells.off_y[cells.starts[b]:cells.starts[b + 1]],
+                                                   strict=True)}
+        for _ in range(40):
+            dx, dy = rng.uniform(-POSE_SLACK, POSE_SLACK, 2)
+            th = (b + rng.uniform(-HEADING_SLACK, HEADING_SLACK)) * 2 * math.pi / bins
+            c, s = math.cos(th), math.sin(th)
+            placed = np.column_stack((dx + c * poly[:, 0] - s * poly[:, 1],
+                                      dy + s * poly[:, 0] + c * poly[:, 1]))
+            for oy in range(-8, 9):
+                for ox in range(-8, 9):
+                    if cheb_to_polygon(float(ox), float(oy), placed) < 0.5:  # cell overlapped
+                        assert (ox, oy) in have, (b, ox, oy)
+    assert cells.reach == pytest.approx(float(np.max(np.hypot(cells.off_x, cells.off_y))))
+
+
+def test_chebyshev_distance_to_a_square() -> None:
+    square = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    assert cheb_to_polygon(0.3, -0.2, square) == 0.0
+    assert cheb_to_polygon(3.0, 0.5, square) == pytest.approx(2.0)
+    assert cheb_to_polygon(3.0, 4.0, square) == pytest.approx(3.0)  # corner: max(2, 3)
+
+
+def test_possible_collision_cost_is_the_inflation_cost_at_the_reach() -> None:
+    lut = cost_lut(11, 0.05, 0.2, 5.0)
+    assert possible_collision_cost(7.3, 0.05, 0.2, 0.55, 5.0) == int(lut[53])  # floor(7.3^2)
+    assert possible_collision_cost(12.0, 0.05, 0.2, 0.55, 5.0) == 0  # beyond the inflation
+
+
+def test_motion_primitives_follow_nav2_geometry() -> None:
+    # R = 10 cells, 72 bins: asin(sqrt2 / 20) * 2 = 8.1 deg -> 2 bins of 5 deg
+    table = build_motion_table(10.0, 72, reeds_shepp=True, interpolate=False)
+    assert table.increments == 2
+    assert table.dbin.tolist() == [0, 2, -2, 0, -2, 2]
+    a = 2 * 2 * math.pi / 72
+    assert table.dx[1, 0] == pytest.approx(10 * math.sin(a))
+    assert table.dy[1, 0] == pytest.approx(10 * (1 - math.cos(a)))
+    assert table.chord >= math.sqrt(2.0)
+    assert table.travel[1] == pytest.approx(10 * a)  # arc length of the turn
+    assert table.reverse.tolist() == [False, False, False, True, True, True]
+    # every collision sample is at most half a cell and half a bin from the previous one
+    for p in range(table.size):
+        k = table.n_samples[p]
+        pts = np.vstack(([0.0, 0.0], table.samples[p, 0, :k, :2]))
+        assert np.hypot(*np.diff(pts, axis=0).T).max() <= 0.5 + 1e-9
+        assert np.allclose(table.samples[p, 0, k - 1, :2], [table.dx[p, 0], table.dy[p, 0]])
+
+
+def test_direct_smoothing_equals_the_converged_descent() -> None:
+    rng = np.random.default_rng(0)
+    raw = np.cumsum(rng.normal(size=(60, 2)), axis=0)
+    fixed = np.zeros(60, dtype=np.bool_)
+    fixed[[0, 1, 17, 58, 59]] = True
+    direct = _solve(raw, fixed, 0.2, 0.3, 3)
+    descent = _descend(raw, fixed, 0.2, 0.3, 1e-10, 1000, 3, 0.05)
+    assert np.abs(direct - descent).max() < 1e-8
+    assert np.array_equal(direct[fixed], raw[fixed])
+    # smoothing lowers the smoothness term the descent minimises (squared 2nd differences)
+    def roughness(xy: np.ndarray) -> float:
+        return float(np.sum(np.diff(xy, n=2, axis=0) ** 2))
+
+    assert roughness(direct) < 0.5 * roughness(raw)
+
+
+def test_curvature_of_a_circle_and_directional_segments() -> None:
+    t = np.linspace(0.0, math.pi, 30)
+    arc = np.column_stack((2.5 * np.cos(t), 2.5 * np.sin(t)))
+    k = curvatures(arc, math.pi / 2, math.pi / 2)
+    assert np.allclose(k, 1 / 2.5)  # inside and at both (tangent) ends
+    direction = np.array([1, 1, 1, -1, -1, 1, 1], dtype=np.int8)
+    assert segments(direction) == [(0, 2), (2, 4), (4, 6)]
