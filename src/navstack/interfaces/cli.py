@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -30,6 +30,16 @@ def _write_json(path: Path | None, payload: dict[str, object]) -> None:
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(payload, indent=2, default=float) + "\n")
+
+
+def _slam_overrides(params: Path | None) -> dict[str, Any] | None:
+    """The ``slam_toolbox: ros__parameters:`` section of a parameter file, if given."""
+    if params is None:
+        return None
+    from navstack.runtime.config import load_yaml, ros_parameters
+
+    return dict(ros_parameters(load_yaml(params), "slam_toolbox", file=str(params),
+                               required=True))
 
 
 def _parse_cmd(text: str) -> tuple[float, float]:
@@ -97,11 +107,13 @@ def demo(
     out: Annotated[Path, typer.Option(help="Folder for report.json, report.md and "
                                       "trajectory.png.")] = Path("runs/demo"),
     seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 1,
-    world: Annotated[str, typer.Option(help="World name or path.")] = "office",
-    robot: Annotated[str, typer.Option(help="Robot profile.")] = "diff_drive",
+    world: Annotated[str | None, typer.Option(
+        help="World name or path (default: office; campus for --robot golf_cart).")] = None,
+    robot: Annotated[str, typer.Option(help="Robot profile (golf_cart: the campus route "
+                                       "with Hybrid-A* + MPPI).")] = "diff_drive",
     waypoints: Annotated[Path | None, typer.Option(
         help="Waypoints YAML (default: the office waypoints, order Goal_3, Goal_4, "
-             "Goal_2, Goal_1).")] = None,
+             "Goal_2, Goal_1; the campus route for golf_cart).")] = None,
     record: Annotated[bool, typer.Option(
         "--record", help="Also record the run as a rosbag2 (MCAP) in OUT/bag (read it "
                          "with `navstack report OUT/bag`).")] = False,
@@ -196,13 +208,9 @@ def slam(
 ) -> None:
     """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its error (RPE)."""
     from navstack.mapping.offline import run_carmen, summary, write_outputs
-    from navstack.runtime.config import load_yaml, ros_parameters
 
     try:
-        overrides = None
-        if params is not None:
-            overrides = ros_parameters(load_yaml(params), "slam_toolbox", file=str(params),
-                                       required=True)
+        overrides = _slam_overrides(params)
         result = run_carmen(carmen, overrides, max_scans=max_scans,
                             params_file=str(params) if params is not None else "")
         files = write_outputs(result, out)
@@ -362,13 +370,9 @@ def bag_slam(
 ) -> None:
     """Offline SLAM on a recorded bag's scans and odometry (scored if it has ground truth)."""
     from navstack.interfaces.bag_slam import run_bag, write_bag_outputs
-    from navstack.runtime.config import load_yaml, ros_parameters
 
     try:
-        overrides = None
-        if params is not None:
-            overrides = ros_parameters(load_yaml(params), "slam_toolbox", file=str(params),
-                                       required=True)
+        overrides = _slam_overrides(params)
         result = run_bag(bag, overrides, max_scans=max_scans,
                          params_file=str(params) if params is not None else "")
         files = write_bag_outputs(result, out)

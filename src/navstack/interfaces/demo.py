@@ -29,8 +29,30 @@ from navstack.navigation.waypoint_follower import load_waypoints
 from navstack.sim.collision import clearance
 
 
+def _config(name: str) -> FsPath:
+    return FsPath(str(resources.files("navstack") / "config" / name))
+
+
 def default_waypoints_path() -> FsPath:
-    return FsPath(str(resources.files("navstack") / "config" / "office_waypoints.yaml"))
+    return _config("office_waypoints.yaml")
+
+
+@dataclass(frozen=True)
+class DemoSetup:
+    """What ``navstack demo --robot NAME`` runs when world, waypoints and Nav2 parameters
+    are not given: the flagship office mission for indoor robots, the campus route with
+    Hybrid-A* + MPPI for the golf cart."""
+
+    world: str
+    waypoints: FsPath
+    nav2_params: FsPath | None
+
+
+def demo_setup(robot: str) -> DemoSetup:
+    if robot == "golf_cart":
+        return DemoSetup("campus", _config("campus_waypoints.yaml"),
+                         _config("golf_cart_nav2_params.yaml"))
+    return DemoSetup("office", default_waypoints_path(), None)
 
 
 @dataclass
@@ -73,7 +95,7 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
             f"recoveries {rec_n}  sim {sim_t:6.1f} s  x{rtf:4.0f} real time")
 
 
-def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "diff_drive",
+def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
              show_progress: bool = True, record: bool = False,
              attach: Callable[[NavStack], Callable[[], None]] | None = None) -> dict[str, Any]:
@@ -85,9 +107,11 @@ def run_demo(out: FsPath, seed: int = 1, world: str = "office", robot: str = "di
     Foxglove); returns the function that detaches them when the mission ends.
     """
     out.mkdir(parents=True, exist_ok=True)
-    waypoints = load_waypoints(waypoints_file or default_waypoints_path())
+    setup = demo_setup(robot)
+    world = world or setup.world
+    waypoints = load_waypoints(waypoints_file or setup.waypoints)
     wall0 = time.perf_counter()
-    stack = NavStack(world, robot, seed=seed)
+    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed)
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder
