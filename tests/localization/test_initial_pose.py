@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from navstack.benchmarks.initial_pose import initial_pose_trials
 from navstack.core.errors import ConfigError, InvalidMessage
 from navstack.core.msgs import (
     Header,
@@ -24,7 +25,6 @@ from navstack.localization.initial_pose import (
     InitialPoseParams,
     MapMatcher,
     gnss_pose_guess,
-    initial_pose_trials,
     magnetometer_yaw,
     scan_in_base,
     surface_points,

@@ -56,9 +56,6 @@ BUDGETS: dict[str, float] = {"amcl_rmse_m": 0.05, "amcl_rmse_deg": 2.0,
                              "initial_pose_err_m": 0.3}
 FLOORS: dict[str, float] = {"global_loc_success": 0.9, "amcl_nees_inside": 0.9,
                             "ekf_nees_inside": 0.9, "ekf_odom_ratio": 3.0}
-#: overrides of the packaged ``amcl:`` section for global localization and kidnapping:
-#: none -- one configuration tracks, localizes globally and recovers (docs/localization.md)
-GLOBAL: dict[str, Any] = {}
 #: the estimate must stay within tolerance this long to count as converged [s]
 HOLD_S = 5.0
 
@@ -290,7 +287,7 @@ def _global_localization(result: BenchResult, trials: int) -> None:
     rng = np.random.default_rng(7)
     times: list[float] = []
     for k, spawn in enumerate(_free_poses(rng, trials)):
-        rt, sim, amcl = _amcl_sim(100 + k, spawn, GLOBAL)
+        rt, sim, amcl = _amcl_sim(100 + k, spawn, {})
         Wander(rt)
         rt.bring_up()
         rt.scheduler.run_until(0.2)  # the latched map reaches AMCL once it is active
@@ -316,7 +313,7 @@ def _kidnap(result: BenchResult, trials: int) -> None:
     recoveries: list[float] = []
     for k, (start, target) in enumerate(zip(starts, targets, strict=True)):
         params = {"set_initial_pose": True,
-                  "initial_pose": {"x": start[0], "y": start[1], "yaw": start[2]}, **GLOBAL}
+                  "initial_pose": {"x": start[0], "y": start[1], "yaw": start[2]}}
         rt, sim, amcl = _amcl_sim(200 + k, start, params)
         Wander(rt)
         rt.bring_up()
@@ -372,7 +369,7 @@ def _ekf_campus(result: BenchResult, duration: float) -> None:
 
 
 def _initial_pose(result: BenchResult, trials: int) -> None:
-    from navstack.localization.initial_pose import initial_pose_trials
+    from navstack.benchmarks.initial_pose import initial_pose_trials
 
     errors = initial_pose_trials(n=trials, seed=3)
     result.metrics["initial_pose_err_m"] = float(np.median(errors))
