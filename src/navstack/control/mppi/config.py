@@ -20,7 +20,11 @@ from typing import Any
 
 
 def golf_cart_mppi_params() -> dict[str, Any]:
-    """The golf-cart ``FollowPath`` section (a fresh dict each call)."""
+    """The golf-cart ``FollowPath`` section as the cart team configured it (a fresh dict
+    each call).  ``config/golf_cart_nav2_params.yaml``, which ``navstack demo --robot
+    golf_cart`` runs, starts from it and departs where the campus runs showed it must
+    (``min_turning_r`` 3.0, GoalAngleCritic, CostCritic ``consider_footprint``); the
+    reasons are comments in that file."""
     return {
         "plugin": "nav2_mppi_controller::MPPIController",
         "time_steps": 56,

@@ -139,6 +139,9 @@ def golf_cart_hybrid_params() -> dict[str, Any]:
     ``analytic_expansion_max_length`` is 5 x the radius, Nav2's rule of thumb ("no less
     than 4-5x the minimum radius"): with the 3 m default a 4.25 m car almost never
     connects analytically and 4 of 6 campus goals exceeded the 5 s budget.
+    ``config/golf_cart_nav2_params.yaml`` (the demo) searches with DUBIN instead: with
+    reversing allowed the plans ended in reverse manoeuvres MPPI would not drive (the
+    reason is a comment there).
     """
     return {
         "plugin": "nav2_smac_planner::SmacPlannerHybrid",
