@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from navstack.core.polygon import Footprint
-from navstack.sim.collision import clearance, footprint_collides, grid_clearance
+from navstack.sim.collision import (
+    clearance,
+    footprint_clearance,
+    footprint_collides,
+    grid_clearance,
+)
 from navstack.sim.world import MovingObstacle, World
 
 RES = 0.05
@@ -105,6 +110,29 @@ def test_clearance_static_and_moving() -> None:
     assert clearance(w, 4.0, 2.3, 0.0, 10.0) == pytest.approx(1.0)
     with pytest.raises(ValueError, match="max_dist"):
         clearance(w, 1.0, 1.0, 0.0, math.inf)
+
+
+def test_footprint_clearance_measures_from_the_outline() -> None:
+    """A 2.9 m x 1.2 m cart body: the outline's distance, not a circle's about the axle."""
+    walker = MovingObstacle("walker", "circle", np.array([[1.5, 0.5], [1.5, 4.5]]), 1.0,
+                            radius=0.25)
+    box = MovingObstacle("cart", "box", np.array([[9.0, 1.0], [9.0, 4.0]]), 1.0,
+                         size=(0.6, 0.6), yaw=0.0)
+    w = wall_world((walker, box))
+    body = Footprint.from_polygon([[2.65, 0.6], [2.65, -0.6], [-0.25, -0.6], [-0.25, 0.6]])
+    # rear axle at (1.0, 3.5) facing +x: the nose at x = 3.65 is 1.35 m from the wall face
+    assert footprint_clearance(w, body.at((1.0, 3.5, 0.0)), 0.0, 5.0) == pytest.approx(1.35)
+    # facing +y: the side at x = 1.6 is 3.4 m from the wall; the walker (y = 0.5, r 0.25)
+    # is below the rear edge y = 3.25: 2.5 m
+    assert footprint_clearance(w, body.at((1.0, 3.5, math.pi / 2)), 0.0, 5.0) == \
+        pytest.approx(2.5)
+    assert footprint_clearance(w, body.at((1.0, 3.5, 0.0)), 0.0, 1.0) == 1.0  # capped
+    assert footprint_clearance(w, body.at((2.5, 2.0, 0.0)), 0.0, 5.0) == 0.0  # nose in the wall
+    # past the wall (tail 0.55 m from its back face), the box (x in [8.7, 9.3] at y = 1)
+    # is 0.15 m ahead of the nose at x = 8.55
+    assert footprint_clearance(w, body.at((5.9, 1.0, 0.0)), 0.0, 5.0) == pytest.approx(0.15)
+    with pytest.raises(ValueError, match="max_dist"):
+        footprint_clearance(w, body.at((1.0, 1.0, 0.0)), 0.0, math.inf)
 
 
 def test_grid_clearance_matches_brute_force() -> None:

@@ -26,7 +26,7 @@ from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.plots import plot_trajectory
 from navstack.interfaces.stack import NavStack
 from navstack.navigation.waypoint_follower import load_waypoints
-from navstack.sim.collision import clearance
+from navstack.sim.collision import footprint_clearance
 
 
 def _config(name: str) -> FsPath:
@@ -66,9 +66,15 @@ class GoalRecord:
     reason: str = ""
 
 
+CLEARANCE_CAP = 3.0
+"""Clearances beyond this [m] are reported as this value."""
+
+
 @dataclass
 class TrajectoryRecorder:
-    """Samples the true robot pose and its clearance at a fixed rate."""
+    """Samples the true robot pose and its clearance at a fixed rate: the distance from
+    the body's footprint outline to the nearest wall, furniture or walker (0 on contact;
+    a circle about the reference point would undercount a long vehicle by metres)."""
 
     stack: NavStack
     rows: list[tuple[float, float, float, float]] = field(default_factory=list)
@@ -79,8 +85,8 @@ class TrajectoryRecorder:
         sim.advance()
         p = sim.sim.pose
         self.rows.append((self.stack.now, p.x, p.y, p.theta))
-        radius = sim.sim.footprint.circumscribed_radius  # the physical body
-        c = clearance(self.stack.world, p.x, p.y, sim.sim.obstacle_clocks, radius + 3.0) - radius
+        body = sim.sim.footprint.at((p.x, p.y, p.theta))  # the physical body's outline
+        c = footprint_clearance(self.stack.world, body, sim.sim.obstacle_clocks, CLEARANCE_CAP)
         self.min_clearance = min(self.min_clearance, c)
 
     def array(self) -> np.ndarray:
