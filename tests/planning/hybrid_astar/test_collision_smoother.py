@@ -13,6 +13,7 @@ from navstack.planning.hybrid_astar.collision import (
     POSE_SLACK,
     FootprintCells,
     cheb_to_polygon,
+    pose_check,
     possible_collision_cost,
 )
 from navstack.planning.hybrid_astar.motion import build_motion_table
@@ -22,7 +23,7 @@ from navstack.planning.hybrid_astar.smoother import (
     curvatures,
     segments,
 )
-from tests.planning.hybrid_astar.helpers import RES, ROBOT
+from tests.planning.hybrid_astar.helpers import INFLATION, RES, ROBOT, costmap
 
 
 def test_cell_sets_cover_every_pose_they_stand_for() -> None:
@@ -46,6 +47,31 @@ def test_cell_sets_cover_every_pose_they_stand_for() -> None:
                     if cheb_to_polygon(float(ox), float(oy), placed) < 0.5:  # cell overlapped
                         assert (ox, oy) in have, (b, ox, oy)
     assert cells.reach == pytest.approx(float(np.max(np.hypot(cells.off_x, cells.off_y))))
+
+
+def test_sets_without_the_inscribed_core_give_the_same_verdicts() -> None:
+    """Leaving out the offsets the centre's INSCRIBED cost already covers changes no check."""
+    lut = cost_lut(5, RES, ROBOT.inscribed_radius, INFLATION[1])
+    covered = int(np.nonzero(lut[:-1] >= 253)[0].max())
+    assert covered == 4  # (0.2 m / 0.1 m)^2
+    full = FootprintCells(ROBOT.polygon, RES, 72)
+    trimmed = FootprintCells(ROBOT.polygon, RES, 72, covered_d2=covered)
+    assert len(trimmed.off_x) < 0.9 * len(full.off_x)
+    assert trimmed.reach == full.reach
+    rng = np.random.default_rng(5)
+    occupied = rng.random((60, 60)) < 0.03  # scattered single-cell obstacles
+    data = costmap(occupied).data
+    verdicts = []
+    for _ in range(4000):
+        x, y = rng.uniform(0.0, 60.0, 2)
+        b = int(rng.integers(72))
+        args = (data, x, y, b)
+        a = pose_check(*args, full.off_x, full.off_y, full.starts, full.border, 0, True)
+        t = pose_check(*args, trimmed.off_x, trimmed.off_y, trimmed.starts, trimmed.border, 0,
+                       True)
+        assert a == t, (x, y, b)
+        verdicts.append(a)
+    assert 0.1 < np.mean(np.array(verdicts) < 0) < 0.9  # both outcomes were exercised
 
 
 def test_chebyshev_distance_to_a_square() -> None:

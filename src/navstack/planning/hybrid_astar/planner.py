@@ -43,6 +43,7 @@ from navstack.costmap.costmap_2d import (
     Costmap2D,
 )
 from navstack.costmap.footprint import make_footprint
+from navstack.costmap.inflation_kernel import cell_distance, cost_lut
 from navstack.costmap.inflation_layer import InflationLayer
 from navstack.costmap.layered_costmap import LayeredCostmap
 from navstack.planning.hybrid_astar import search as hs
@@ -151,7 +152,8 @@ class HybridAStar:
         self._radius = p.minimum_turning_radius / res
         self.motion: MotionTable = build_motion_table(
             self._radius, bins, self.model == REEDS_SHEPP, p.allow_primitive_interpolation)
-        self.cells = FootprintCells(self.footprint.polygon, res, bins)
+        self.cells = FootprintCells(self.footprint.polygon, res, bins,
+                                    covered_d2=self._covered_d2(res, factor))
         # a primitive's samples lie within its travel length of the parent pose: cells of
         # their footprint sets are within reach + travel + 2 half-diagonals of its cell
         sweep = self.cells.reach + float(self.motion.travel.max()) + math.sqrt(2.0)
@@ -169,6 +171,22 @@ class HybridAStar:
         self._floored = floored
         self._max_len = p.analytic_expansion_max_length / res
         self._key = key
+
+    def _covered_d2(self, res: float, factor: int) -> int:
+        """Largest squared cell distance the inflation marks INSCRIBED, or -1.
+
+        See :class:`FootprintCells` (``covered_d2``): only with the inflation known, no
+        downsampling (a downsampled cell is the max of its block, whose distances are
+        not the inflation's) and ``allow_unknown`` (unknown cells are not inflated).
+        """
+        if self.inflation is None or factor != 1 or not self.params.allow_unknown:
+            return -1
+        r_cells = cell_distance(self.inflation[0], res)
+        if r_cells <= 0:
+            return -1
+        lut = cost_lut(r_cells, res, self.footprint.inscribed_radius, self.inflation[1])
+        inscribed = np.nonzero(lut[:-1] >= INSCRIBED_INFLATED_OBSTACLE)[0]
+        return int(inscribed.max()) if len(inscribed) else -1
 
     def _workspace(self, width: int, height: int) -> SearchWorkspace:
         bins = self.params.angle_quantization_bins
