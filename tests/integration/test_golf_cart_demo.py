@@ -70,3 +70,6 @@ def test_golf_cart_reaches_two_campus_goals_forward_without_collision(tmp_path: 
     assert plans
     assert all(first_inversion_end(p[:, :2]) == len(p) for p in plans)
     assert (tmp_path / "out" / "report.json").is_file()
+    # the cart cannot turn in place: its parameter file drops Spin from the recoveries
+    assert stacks[0].navigator.tree_params.recovery_behaviors == (
+        "clear_costmaps", "wait", "backup")

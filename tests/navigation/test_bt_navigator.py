@@ -11,6 +11,7 @@ import math
 
 import pytest
 
+from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D, PoseStamped
 from navstack.navigation import messages as m
 from navstack.navigation.bt_navigator import BtNavigatorParams, NavigateResult
@@ -88,6 +89,27 @@ def test_controller_failure_runs_recoveries_in_round_robin_and_counts_them() -> 
     assert len(h.controller.goals) == 14 and len(h.planner.calls) == 1
     counts = [f.number_of_recoveries for f in h.feedback]
     assert counts == sorted(counts) and counts[-1] == 6
+
+
+def test_recovery_behaviors_choose_the_round_robin_for_a_car() -> None:
+    """An Ackermann robot cannot spin: its list leaves Spin out and keeps the order."""
+    h = make_harness(FAST.model_copy(update={"recovery_behaviors": ("clear_costmaps", "wait",
+                                                                   "backup")}), mode="fail")
+    res = h.run_until_done(h.goal(5.0, 0.0))
+    assert res.status is GoalStatus.FAILED
+    assert h.behaviors.names("clear_global", "spin", "wait", "backup") == [
+        "clear_global", "wait", "backup", "clear_global", "wait", "backup"]
+
+
+def test_recovery_behaviors_are_validated() -> None:
+    with pytest.raises(ConfigError, match="recovery_behaviors") as err:
+        NavigateTreeParams.from_mapping({"recovery_behaviors": ["spin", "turn"]}, file="p.yaml",
+                                        key_path="bt_navigator.tree")
+    assert "'clear_costmaps', 'spin', 'wait' or 'backup'" in str(err.value)
+    with pytest.raises(ConfigError, match="lists a behavior twice"):
+        NavigateTreeParams.from_mapping({"recovery_behaviors": ["wait", "wait"]})
+    with pytest.raises(ConfigError, match="recovery_behaviors"):
+        NavigateTreeParams.from_mapping({"recovery_behaviors": []})
 
 
 def test_new_goal_during_a_recovery_halts_it_and_navigates_to_the_new_goal() -> None:

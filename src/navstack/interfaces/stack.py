@@ -28,6 +28,7 @@ from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
+from navstack.navigation.trees import NavigateTreeParams
 from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
 from navstack.runtime.config import load_stack, load_yaml, ros_parameters
 from navstack.runtime.node import Runtime
@@ -131,8 +132,12 @@ class NavStack:
                 key_path="behavior_server"),
             collision_checker=self.local_collision)
         self.collision_monitor = CollisionMonitorNode(rt, self.body_footprint)
-        self.navigator = BtNavigator(rt, BtNavigatorParams.from_mapping(
-            ros_parameters(nav, "bt_navigator", file=file), file=file, key_path="bt_navigator"))
+        bt = ros_parameters(nav, "bt_navigator", file=file)
+        tree = bt.pop("tree", None) or {}
+        self.navigator = BtNavigator(
+            rt, BtNavigatorParams.from_mapping(bt, file=file, key_path="bt_navigator"),
+            tree_params=NavigateTreeParams.from_mapping(tree, file=file,
+                                                        key_path="bt_navigator.tree"))
         self.waypoint_follower = WaypointFollower(rt, WaypointFollowerParams.from_mapping(
             ros_parameters(nav, "waypoint_follower", file=file), file=file,
             key_path="waypoint_follower"))

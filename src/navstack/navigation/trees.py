@@ -40,12 +40,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
+from typing import Literal
 
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 from py_trees.composites import Selector, Sequence
 from py_trees.decorators import Inverter
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from navstack.core.params import Params
 from navstack.navigation import messages as m
@@ -74,12 +75,20 @@ from navstack.navigation.bt_nodes import (
     Wait,
 )
 
+RecoveryName = Literal["clear_costmaps", "spin", "wait", "backup"]
+RECOVERY_NAMES: tuple[RecoveryName, ...] = ("clear_costmaps", "spin", "wait", "backup")
+"""Nav2's RecoveryActions RoundRobin, in its order."""
+
 
 class NavigateTreeParams(Params):
     """Knobs of the default trees; defaults are the values in Nav2's XML files.
 
     ``progress_epsilon`` / ``progress_dwell_time`` configure the navstack progress
     trigger; ``passed_goal_radius`` is ``RemovePassedGoals`` ``radius`` (Nav2 default 0.5).
+    ``recovery_behaviors`` lists the RoundRobin's actions in order (Nav2: edit the XML);
+    a car-like robot cannot turn in place and drops ``spin``, as Nav2's Ackermann
+    examples remove the Spin node.  In a stack's parameter file these knobs go under
+    ``bt_navigator: ros__parameters: tree:``.
     """
 
     number_of_retries: int = Field(6, ge=0)
@@ -95,6 +104,14 @@ class NavigateTreeParams(Params):
     planner_id: str = "GridBased"
     controller_id: str = "FollowPath"
     goal_checker_id: str = ""
+    recovery_behaviors: tuple[RecoveryName, ...] = Field(RECOVERY_NAMES, min_length=1)
+
+    @field_validator("recovery_behaviors")
+    @classmethod
+    def _distinct(cls, v: tuple[RecoveryName, ...]) -> tuple[RecoveryName, ...]:
+        if len(set(v)) != len(v):
+            raise ValueError(f"lists a behavior twice: {list(v)}")
+        return v
 
 
 TreeBuilder = Callable[[TreeContext, NavigateTreeParams], Behaviour]
@@ -115,12 +132,15 @@ def _recovery_branch(ctx: TreeContext, p: NavigateTreeParams) -> Behaviour:
         ClearEntireCostmap("ClearLocalCostmap-Subtree", ctx, m.CLEAR_LOCAL_COSTMAP),
         ClearEntireCostmap("ClearGlobalCostmap-Subtree", ctx, m.CLEAR_GLOBAL_COSTMAP),
     ])
-    actions = RoundRobin("RecoveryActions", children=[
-        clearing,
-        Spin(ctx, p.spin_dist, p.behavior_time_allowance),
-        Wait(ctx, p.wait_duration),
-        BackUp(ctx, p.backup_dist, p.backup_speed, p.behavior_time_allowance),
-    ])
+    make: dict[RecoveryName, Callable[[], Behaviour]] = {
+        "clear_costmaps": lambda: clearing,
+        "spin": lambda: Spin(ctx, p.spin_dist, p.behavior_time_allowance),
+        "wait": lambda: Wait(ctx, p.wait_duration),
+        "backup": lambda: BackUp(ctx, p.backup_dist, p.backup_speed,
+                                 p.behavior_time_allowance),
+    }
+    actions = RoundRobin("RecoveryActions",
+                         children=[make[name]() for name in p.recovery_behaviors])
     fallback = Selector("RecoveryFallback", memory=False, children=[GoalUpdated(ctx), actions])
     return Sequence("RecoveryBranch", memory=True, children=[CountRecovery(ctx), fallback])
 
