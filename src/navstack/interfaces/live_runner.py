@@ -20,6 +20,7 @@ sprinting to catch up (counted in ``overruns``).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import threading
@@ -246,10 +247,9 @@ class LiveRunner:
         if thread is None or thread is threading.current_thread():
             return fn(self.stack)
         if self.running:
-            try:
+            # a RunnerError means it stopped in the meantime: run fn here once it has ended
+            with contextlib.suppress(RunnerError):
                 return self.submit(fn).result(timeout)
-            except RunnerError:
-                pass  # stopped in the meantime: run it here once the thread has ended
         thread.join(timeout)
         if thread.is_alive():
             raise RunnerError(f"the simulation thread did not stop within {timeout:.1f} s")

@@ -128,12 +128,11 @@ def _replan_if_needed(ctx: TreeContext, planner: Behaviour) -> Behaviour:
 
 def _recovery_branch(ctx: TreeContext, p: NavigateTreeParams) -> Behaviour:
     """Count the entry, then the next recovery in round-robin order unless the goal changes."""
-    clearing = Sequence("ClearingActions", memory=True, children=[
-        ClearEntireCostmap("ClearLocalCostmap-Subtree", ctx, m.CLEAR_LOCAL_COSTMAP),
-        ClearEntireCostmap("ClearGlobalCostmap-Subtree", ctx, m.CLEAR_GLOBAL_COSTMAP),
-    ])
     make: dict[RecoveryName, Callable[[], Behaviour]] = {
-        "clear_costmaps": lambda: clearing,
+        "clear_costmaps": lambda: Sequence("ClearingActions", memory=True, children=[
+            ClearEntireCostmap("ClearLocalCostmap-Subtree", ctx, m.CLEAR_LOCAL_COSTMAP),
+            ClearEntireCostmap("ClearGlobalCostmap-Subtree", ctx, m.CLEAR_GLOBAL_COSTMAP),
+        ]),
         "spin": lambda: Spin(ctx, p.spin_dist, p.behavior_time_allowance),
         "wait": lambda: Wait(ctx, p.wait_duration),
         "backup": lambda: BackUp(ctx, p.backup_dist, p.backup_speed,

@@ -292,11 +292,9 @@ def footprint_clearance(world: World, polygon_world: FloatArray, t: MovingTime,
                                      world.resolution, poly, float(max_dist)))
     if world.moving_obstacles:
         circles, boxes = world.moving_shapes_at(t)
-        for k in range(len(circles)):
-            cx, cy, r = (float(v) for v in circles[k])
-            edge = min(float(_point_segment_dist(cx, cy, *poly[i], *poly[(i + 1) % len(poly)]))
-                       for i in range(len(poly)))
-            d = min(d, max(0.0, edge - r))
+        for circle in circles:  # centre outside the polygon (no collision): edge distance
+            centre = np.ascontiguousarray(circle[None, :2], dtype=np.float64)
+            d = min(d, max(0.0, float(_polygons_distance(poly, centre)) - float(circle[2])))
         for box in boxes:
             d = min(d, float(_polygons_distance(poly, np.ascontiguousarray(box, np.float64))))
     return d
