@@ -10,11 +10,15 @@ import pytest
 from navstack.costmap.inflation_kernel import cost_lut
 from navstack.planning.hybrid_astar.collision import (
     HEADING_SLACK,
+    HEADING_STEP,
     POSE_SLACK,
+    SAMPLE_STEP,
+    SUBCELLS,
     FootprintCells,
     cheb_to_polygon,
     pose_check,
     possible_collision_cost,
+    set_index,
 )
 from navstack.planning.hybrid_astar.motion import build_motion_table
 from navstack.planning.hybrid_astar.smoother import (
@@ -27,17 +31,20 @@ from tests.planning.hybrid_astar.helpers import INFLATION, RES, ROBOT, costmap
 
 
 def test_cell_sets_cover_every_pose_they_stand_for() -> None:
-    """Any pose within the slack of a cell centre and bin overlaps only set cells."""
+    """Any pose within the slack of a sub-cell centre and bin overlaps only set cells."""
     bins = 72
     cells = FootprintCells(ROBOT.polygon, RES, bins)
+    assert len(cells.starts) == bins * SUBCELLS**2 + 1
     poly = ROBOT.polygon / RES
     rng = np.random.default_rng(2)
-    for b in (0, 7, 18, 41, 63):
-        have = {(int(x), int(y)) for x, y in zip(cells.off_x[cells.starts[b]:cells.starts[b + 1]],
-                                                   cells.off_y[cells.starts[b]:cells.starts[b + 1]],
+    for b, sx, sy in ((0, 0, 0), (7, 3, 1), (18, 2, 2), (41, 0, 3), (63, 3, 3)):
+        i = set_index(b, sx, sy)
+        have = {(int(x), int(y)) for x, y in zip(cells.off_x[cells.starts[i]:cells.starts[i + 1]],
+                                                   cells.off_y[cells.starts[i]:cells.starts[i + 1]],
                                                    strict=True)}
+        cx, cy = (sx + 0.5) / SUBCELLS - 0.5, (sy + 0.5) / SUBCELLS - 0.5
         for _ in range(40):
-            dx, dy = rng.uniform(-POSE_SLACK, POSE_SLACK, 2)
+            dx, dy = rng.uniform(-POSE_SLACK, POSE_SLACK, 2) + np.array([cx, cy])
             th = (b + rng.uniform(-HEADING_SLACK, HEADING_SLACK)) * 2 * math.pi / bins
             c, s = math.cos(th), math.sin(th)
             placed = np.column_stack((dx + c * poly[:, 0] - s * poly[:, 1],
@@ -45,8 +52,28 @@ def test_cell_sets_cover_every_pose_they_stand_for() -> None:
             for oy in range(-8, 9):
                 for ox in range(-8, 9):
                     if cheb_to_polygon(float(ox), float(oy), placed) < 0.5:  # cell overlapped
-                        assert (ox, oy) in have, (b, ox, oy)
+                        assert (ox, oy) in have, (b, sx, sy, ox, oy)
     assert cells.reach == pytest.approx(float(np.max(np.hypot(cells.off_x, cells.off_y))))
+
+
+def test_pose_check_reads_the_set_of_the_poses_sub_cell() -> None:
+    """A lethal cell only one sub-cell's set holds: poses in that sub-cell collide."""
+    cells = FootprintCells(ROBOT.polygon, RES, 72)
+    b = 0
+    near, far = set_index(b, 0, 0), set_index(b, SUBCELLS - 1, SUBCELLS - 1)
+
+    def offsets(i: int) -> set[tuple[int, int]]:
+        sl = slice(cells.starts[i], cells.starts[i + 1])
+        return set(zip(cells.off_x[sl].tolist(), cells.off_y[sl].tolist(), strict=True))
+
+    only_far = offsets(far) - offsets(near)
+    assert only_far  # the sub-cells' sets differ
+    ox, oy = max(only_far)
+    data = np.zeros((40, 40), dtype=np.uint8)
+    data[20 + oy, 20 + ox] = 254
+    args = (cells.off_x, cells.off_y, cells.starts, cells.border, 0, True)
+    assert pose_check(data, 20.05, 20.05, b, *args) == 0
+    assert pose_check(data, 20.95, 20.95, b, *args) == -1
 
 
 def test_sets_without_the_inscribed_core_give_the_same_verdicts() -> None:
@@ -98,11 +125,13 @@ def test_motion_primitives_follow_nav2_geometry() -> None:
     assert table.chord >= math.sqrt(2.0)
     assert table.travel[1] == pytest.approx(10 * a)  # arc length of the turn
     assert table.reverse.tolist() == [False, False, False, True, True, True]
-    # every collision sample is at most half a cell and half a bin from the previous one
+    # every collision sample is at most SAMPLE_STEP cells and HEADING_STEP bins from the
+    # previous one: the slack the cell sets are built for
     for p in range(table.size):
         k = table.n_samples[p]
         pts = np.vstack(([0.0, 0.0], table.samples[p, 0, :k, :2]))
-        assert np.hypot(*np.diff(pts, axis=0).T).max() <= 0.5 + 1e-9
+        assert np.hypot(*np.diff(pts, axis=0).T).max() <= SAMPLE_STEP + 1e-9
+        assert abs(table.dbin[p]) / k <= HEADING_STEP + 1e-9  # evenly spaced on the arc
         assert np.allclose(table.samples[p, 0, k - 1, :2], [table.dx[p, 0], table.dy[p, 0]])
 
 

@@ -92,7 +92,7 @@ def test_reverse_motion_only_with_reeds_shepp(corridor: Costmap2D) -> None:
     assert str(err.value) == (
         "no valid path from start (6.00, 0.00) to goal (2.00, 0.00) at goal heading 0.000 rad "
         "(0.0 deg): every pose reachable with minimum_turning_radius 1.0 m (DUBIN) was searched "
-        "(117 expansions); check the costmap for a passage too narrow for the footprint, or use "
+        "(151 expansions); check the costmap for a passage too narrow for the footprint, or use "
         "REEDS_SHEPP")
 
 
@@ -114,9 +114,9 @@ def test_unreachable_goal_heading_names_the_heading(corridor: Costmap2D) -> None
         planner("DUBIN").plan(Pose2D(-2.0, 0.0, 0.0), Pose2D(6.0, 0.0, math.pi), corridor)
     assert str(err.value) == (
         "no valid path from start (-2.00, 0.00) to goal (6.00, 0.00) at goal heading 3.142 rad "
-        "(180.0 deg): the goal position is reachable only at headings 0, 10, 20, 340, 350 deg "
-        "(kinematically, with minimum_turning_radius 1.0 m and DUBIN); choose a reachable goal "
-        "heading, raise tolerance or use REEDS_SHEPP")
+        "(180.0 deg): the goal position is reachable only at headings 0, 10, 20, 30, 40, 340, "
+        "350 deg (kinematically, with minimum_turning_radius 1.0 m and DUBIN); choose a "
+        "reachable goal heading, raise tolerance or use REEDS_SHEPP")
 
 
 def test_goal_heading_that_puts_the_footprint_into_a_wall(corridor: Costmap2D) -> None:

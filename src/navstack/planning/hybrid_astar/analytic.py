@@ -13,8 +13,9 @@ to ``4 R`` in half-cell steps, keeping the best-scoring one
 (``sum(step * (1 + cost_penalty * cost / 252))``).
 
 Samples are taken every :data:`~navstack.planning.hybrid_astar.collision.SAMPLE_STEP`
-cells and at every segment end (cusps included) — denser than Nav2's ``sqrt(2)`` — so
-the conservative footprint sets cover the curve between samples as well.
+cells and :data:`~navstack.planning.hybrid_astar.collision.HEADING_STEP` bins and at
+every segment end (cusps included), so the conservative footprint sets cover the curve
+between samples as well.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.planning.hybrid_astar.collision import pose_check
+from navstack.planning.hybrid_astar.collision import HEADING_STEP, pose_check
 from navstack.planning.hybrid_astar.curves import NOP, sample_path, shortest_path
 
 
@@ -33,19 +34,22 @@ from navstack.planning.hybrid_astar.curves import NOP, sample_path, shortest_pat
 def shot(x0: float, y0: float, th0: float, gx: float, gy: float, gth: float, model: int,
          radius: float, max_length: float, max_cost: float, override: bool,
          min_radius: float, step: float, bins: int, data: NDArray[np.uint8],
-         off_x: NDArray[np.int64], off_y: NDArray[np.int64], starts: NDArray[np.int64],
+         off_x: NDArray[np.int16], off_y: NDArray[np.int16], starts: NDArray[np.int64],
          border: int, possible_cost: int, allow_unknown: bool, out: NDArray[np.float64],
          odir: NDArray[np.int8], ocost: NDArray[np.int64]) -> tuple[int, int]:
     """One analytic shot from ``(x0, y0, th0)`` to the goal with ``radius`` [cells].
 
     Returns ``(samples, direction_changes)``; ``samples = -1`` when the shot is rejected.
     """
+    if math.hypot(gx - x0, gy - y0) > max_length:
+        return -1, 0  # no curve is shorter than the straight line: skip solving for it
     types = np.empty(5, dtype=np.int64)
     lengths = np.empty(5)
     d = shortest_path(model, x0, y0, th0, gx, gy, gth, radius, types, lengths)
     if not d <= max_length or d < math.sqrt(2.0):
         return -1, 0
-    n = sample_path(x0, y0, th0, types, lengths, radius, step, out, odir)
+    n = sample_path(x0, y0, th0, types, lengths, radius, step, out, odir,
+                    HEADING_STEP * 2.0 * math.pi / bins)
     if n < 0:
         return -1, 0
     bin_size = 2.0 * math.pi / bins
@@ -88,7 +92,7 @@ def shot(x0: float, y0: float, th0: float, gx: float, gy: float, gth: float, mod
 def refine(u: int, nodes: NDArray[np.float64], gx: float, gy: float,
            gth: float, model: int, radius: float, max_length: float, max_cost: float,
            override: bool, cost_penalty: float, step: float, bins: int,
-           data: NDArray[np.uint8], off_x: NDArray[np.int64], off_y: NDArray[np.int64],
+           data: NDArray[np.uint8], off_x: NDArray[np.int16], off_y: NDArray[np.int16],
            starts: NDArray[np.int64], border: int, possible_cost: int, allow_unknown: bool,
            best: NDArray[np.float64], bdir: NDArray[np.int8], bcost: NDArray[np.int64],
            scr: NDArray[np.float64], sdir: NDArray[np.int8],

@@ -300,10 +300,23 @@ def path_distance(model: int, x0: float, y0: float, th0: float, x1: float, y1: f
 
 
 @nb.njit(cache=True)
+def segment_samples(kind: int, seg: float, radius: float, step: float,
+                    dth_step: float) -> int:
+    """Samples for one segment: ``<= step`` of arc length and, on a turn, ``<= dth_step``
+    [rad] of heading apart."""
+    m = max(1, math.ceil(abs(seg) * radius / step - 1e-9))
+    if kind != STRAIGHT and dth_step > 0.0:
+        m = max(m, math.ceil(abs(seg) / dth_step - 1e-9))
+    return m
+
+
+@nb.njit(cache=True)
 def sample_path(x0: float, y0: float, th0: float, types: NDArray[np.int64],
                 lengths: NDArray[np.float64], radius: float, step: float,
-                out: NDArray[np.float64], direction: NDArray[np.int8]) -> int:
-    """Poses along a path every ``<= step`` of arc length, start excluded.
+                out: NDArray[np.float64], direction: NDArray[np.int8],
+                dth_step: float = 0.0) -> int:
+    """Poses along a path every ``<= step`` of arc length (and, on turns, every
+    ``<= dth_step`` rad of heading when it is positive), start excluded.
 
     Every segment end (cusps included) is a sample, so a reversal point is never skipped.
     ``out[k] = (x, y, theta)``, ``direction[k]`` is +1 / -1 for the motion that reaches
@@ -313,7 +326,7 @@ def sample_path(x0: float, y0: float, th0: float, types: NDArray[np.int64],
     need = 0
     for i in range(5):
         if types[i] != NOP and lengths[i] != 0.0:
-            need += max(1, math.ceil(abs(lengths[i]) * radius / step - 1e-9))
+            need += segment_samples(types[i], lengths[i], radius, step, dth_step)
     if need > out.shape[0]:
         return -need
     k = 0
@@ -323,7 +336,7 @@ def sample_path(x0: float, y0: float, th0: float, types: NDArray[np.int64],
         seg = lengths[i]
         if kind == NOP or seg == 0.0:
             continue
-        m = max(1, math.ceil(abs(seg) * radius / step - 1e-9))
+        m = segment_samples(kind, seg, radius, step, dth_step)
         for j in range(1, m + 1):
             ln = seg * j / m
             if kind == STRAIGHT:
@@ -357,15 +370,16 @@ def shortest(model: int, start: tuple[float, float, float], goal: tuple[float, f
 
 
 def sample(model: int, start: tuple[float, float, float], goal: tuple[float, float, float],
-           radius: float, step: float) -> tuple[NDArray[np.float64], NDArray[np.int8]]:
+           radius: float, step: float, dth_step: float = 0.0
+           ) -> tuple[NDArray[np.float64], NDArray[np.int8]]:
     """Python convenience: ``(poses (K, 3), directions (K,))`` along the shortest path,
     the start pose included as the first row (direction of the first motion)."""
     _, types, lengths = shortest(model, start, goal, radius)
-    n = int(np.sum(np.maximum(1, np.ceil(np.abs(lengths) * radius / step - 1e-9))
-                   * ((types != NOP) & (lengths != 0.0))))
+    n = sum(segment_samples(int(t), float(ln), radius, step, dth_step)
+            for t, ln in zip(types, lengths, strict=True) if t != NOP and ln != 0.0)
     out = np.empty((n + 1, 3))
     direction = np.empty(n + 1, dtype=np.int8)
     out[0] = start
-    k = sample_path(*start, types, lengths, radius, step, out[1:], direction[1:])
+    k = sample_path(*start, types, lengths, radius, step, out[1:], direction[1:], dth_step)
     direction[0] = direction[1] if k else 1
     return out[:k + 1], direction[:k + 1]

@@ -78,11 +78,27 @@ def heuristic_weights(data: NDArray[np.uint8], downsample: bool, cost_penalty: f
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def obstacle_query(idx: int, weight: NDArray[np.float64], wd: int, dist: NDArray[np.float64],
                    stamp: NDArray[np.int32], hkey: NDArray[np.float64],
                    hnode: NDArray[np.int32], hpos: NDArray[np.int32],
                    state: NDArray[np.int64]) -> float:
+    """Settled Dijkstra distance of coarse cell ``idx`` (``inf`` if unreachable).
+
+    The lookup of a settled cell is inlined into the caller (no call, so no reference
+    counting of the array arguments); only a cell not settled yet calls
+    :func:`obstacle_expand`.
+    """
+    if stamp[idx] == 2 * state[0] + 1:
+        return dist[idx]
+    return obstacle_expand(idx, weight, wd, dist, stamp, hkey, hnode, hpos, state)
+
+
+@nb.njit(cache=True)
+def obstacle_expand(idx: int, weight: NDArray[np.float64], wd: int,
+                    dist: NDArray[np.float64], stamp: NDArray[np.int32],
+                    hkey: NDArray[np.float64], hnode: NDArray[np.int32],
+                    hpos: NDArray[np.int32], state: NDArray[np.int64]) -> float:
     """Settled Dijkstra distance of coarse cell ``idx`` (``inf`` if unreachable).
 
     Expands the resumable Dijkstra (indexed binary heap with decrease-key) until ``idx``
@@ -243,30 +259,23 @@ def table_dims(lookup_table_size_m: float, resolution: float) -> tuple[int, int,
 
 
 @nb.njit(cache=True)
-def distance_query(table: NDArray[np.float32], floored: int, model: int, radius: float,
-                   bins: int, nx: float, ny: float, nbin: int, gx: float, gy: float,
-                   gbin: int, cos_g: float, sin_g: float) -> float:
-    """Dubins/RS length from node ``(nx, ny, nbin)`` to the goal (Nav2 lookup rules).
+def distance_entry(table: NDArray[np.float32], floored: int, model: int, radius: float,
+                   xi: int, yi: int, th: int) -> float:
+    """Compute and store table entry ``(xi, yi, th)``: the Dubins/RS length from cell
+    offset ``(xi - floored, yi)`` at heading bin ``th`` to the origin facing +x.
 
-    0 outside the window (the obstacle heuristic then dominates, as in Nav2).
+    The search reads entries itself (Nav2 lookup rules: the node's offset rotated into
+    the goal frame and rounded to cells, mirrored to ``y >= 0``; 0 outside the window)
+    and calls this for one not computed yet.  Reeds-Shepp lengths are invariant under
+    time-flip: ``(x, y, theta)`` and ``(-x, y, -theta)`` share an entry.
     """
-    dx, dy = nx - gx, ny - gy
-    rx = round(dx * cos_g + dy * sin_g)
-    ry = round(-dx * sin_g + dy * cos_g)
-    if abs(rx) >= floored or abs(ry) >= floored:
-        return 0.0
-    dth = (nbin - gbin) % bins
-    th = (bins - dth) % bins if ry < 0 else dth
-    xi = int(rx) + floored
-    yi = int(abs(ry))
-    v = table[xi, yi, th]
-    if v < 0.0:
-        v = path_distance(model, float(rx), float(abs(ry)), th * 2.0 * math.pi / bins,
-                          0.0, 0.0, 0.0, radius)
-        table[xi, yi, th] = v
-        if model == REEDS_SHEPP:
-            table[2 * floored - xi, yi, (bins - th) % bins] = v
-    return float(v)
+    bins = table.shape[2]
+    v = path_distance(model, float(xi - floored), float(yi), th * 2.0 * math.pi / bins,
+                      0.0, 0.0, 0.0, radius)
+    table[xi, yi, th] = v
+    if model == REEDS_SHEPP:
+        table[2 * floored - xi, yi, (bins - th) % bins] = v
+    return v
 
 
 @nb.njit(cache=True)
@@ -277,18 +286,13 @@ def fill_table(table: NDArray[np.float32], floored: int, model: int, radius: flo
     ``(-x, y, -theta)`` share an entry, so only ``x >= 0`` is computed for them.
     """
     nx, ny, bins = table.shape
-    rs = model == REEDS_SHEPP
-    start = floored if rs else 0
+    start = floored if model == REEDS_SHEPP else 0
     for k in range(nx - start):
         xi = start + k
         for yi in range(ny):
             for th in range(bins):
                 if table[xi, yi, th] < 0.0:
-                    v = path_distance(model, float(xi - floored), float(yi),
-                                      th * 2.0 * math.pi / bins, 0.0, 0.0, 0.0, radius)
-                    table[xi, yi, th] = v
-                    if rs:
-                        table[2 * floored - xi, yi, (bins - th) % bins] = v
+                    distance_entry(table, floored, model, radius, xi, yi, th)
 
 
 def new_table(size: int, ceiling: int, bins: int) -> NDArray[np.float32]:

@@ -49,6 +49,7 @@ from navstack.costmap.layered_costmap import LayeredCostmap
 from navstack.planning.hybrid_astar import search as hs
 from navstack.planning.hybrid_astar.checks import pose_collision
 from navstack.planning.hybrid_astar.collision import (
+    HEADING_STEP,
     SAMPLE_STEP,
     FootprintCells,
     poses_check,
@@ -193,7 +194,9 @@ class HybridAStar:
         ws = self._ws
         if ws is None or (ws.width, ws.height, ws.bins) != (width, height, bins):
             ws = self._ws = SearchWorkspace(width, height, bins)
-        ws.set_analytic_capacity(math.ceil(self._max_len / SAMPLE_STEP) + 16)
+        # samples SAMPLE_STEP cells and, on turns of radius >= R, HEADING_STEP bins apart
+        arc_step = self._radius * HEADING_STEP * 2.0 * math.pi / bins
+        ws.set_analytic_capacity(math.ceil(self._max_len / min(SAMPLE_STEP, arc_step)) + 16)
         return ws
 
     # --- planning ------------------------------------------------------------------------

@@ -40,9 +40,15 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.costmap.costmap_2d import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+)
 from navstack.planning.hybrid_astar.analytic import refine
-from navstack.planning.hybrid_astar.collision import pose_check
-from navstack.planning.hybrid_astar.heuristics import distance_query, obstacle_query
+from navstack.planning.hybrid_astar.collision import HEADING_STEP, SUBCELLS, set_index
+from navstack.planning.hybrid_astar.curves import sample_path, shortest_path
+from navstack.planning.hybrid_astar.heuristics import distance_entry, obstacle_expand
 
 RUNNING, FOUND, FOUND_ANALYTIC, FOUND_APPROACH, EXHAUSTED, GROW = range(6)
 
@@ -73,7 +79,7 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                mdy: NDArray[np.float64], mdbin: NDArray[np.int64], mturn: NDArray[np.int64],
                mrev: NDArray[np.bool_], mtravel: NDArray[np.float64],
                msamp: NDArray[np.float64], mnsamp: NDArray[np.int64],
-               off_x: NDArray[np.int64], off_y: NDArray[np.int64], starts: NDArray[np.int64],
+               off_x: NDArray[np.int16], off_y: NDArray[np.int16], starts: NDArray[np.int64],
                hweight: NDArray[np.float64], hdist: NDArray[np.float64],
                hstamp: NDArray[np.int32], hkey: NDArray[np.float64],
                hnode: NDArray[np.int32], hpos: NDArray[np.int32], hstate: NDArray[np.int64],
@@ -136,11 +142,84 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
     model = ip[IP_MODEL]
     radius = fp[FP_RADIUS]
 
+    # Helpers are closures over the kernel's arrays: a call to a separately compiled
+    # function (even one numba inlines) increments and decrements the reference count of
+    # every array argument, which cost more than the work of the lookup or the check.
+    def obstacle(idx: int) -> float:
+        """Obstacle heuristic of coarse cell idx; expands the Dijkstra only when unsettled."""
+        if hstamp[idx] == 2 * hstate[0] + 1:
+            return hdist[idx]
+        return obstacle_expand(idx, hweight, wd, hdist, hstamp, hkey, hnode, hpos, hstate)
+
+    def check(x: float, y: float, b: int) -> int:
+        """:func:`~navstack.planning.hybrid_astar.collision.pose_check` of pose (x, y, b)."""
+        if x < 0.0 or y < 0.0:
+            return -1
+        cx = int(x)
+        cy = int(y)
+        if cx >= w or cy >= h_map:
+            return -1
+        c = int(data[cy, cx])
+        if c == NO_INFORMATION:
+            if not allow_unknown:
+                return -1
+        elif c >= INSCRIBED_INFLATED_OBSTACLE:
+            return -1
+        if c < possible and border <= cx < w - border and border <= cy < h_map - border:
+            return c
+        i = set_index(b, min(int((x - cx) * SUBCELLS), SUBCELLS - 1),
+                      min(int((y - cy) * SUBCELLS), SUBCELLS - 1))
+        for k in range(starts[i], starts[i + 1]):
+            x_k = cx + off_x[k]
+            y_k = cy + off_y[k]
+            if x_k < 0 or y_k < 0 or x_k >= w or y_k >= h_map:
+                return -1
+            v = data[y_k, x_k]
+            if v == LETHAL_OBSTACLE or (v == NO_INFORMATION and not allow_unknown):
+                return -1
+        return c
+
+    def distance(cx: int, cy: int, b: int) -> float:
+        """Dubins/RS length from cell (cx, cy), bin b to the goal, from the lookup table
+        (:func:`~navstack.planning.hybrid_astar.heuristics.distance_entry`)."""
+        dx, dy = cx + 0.5 - gx, cy + 0.5 - gy
+        rx = round(dx * cos_g + dy * sin_g)
+        ry = round(-dx * sin_g + dy * cos_g)
+        if abs(rx) >= floored or abs(ry) >= floored:
+            return 0.0  # outside the window: the obstacle heuristic dominates (Nav2)
+        dth = (b - goal_bin) % bins
+        th = (bins - dth) % bins if ry < 0 else dth
+        xi = int(rx) + floored
+        yi = int(abs(ry))
+        v = table[xi, yi, th]
+        if v < 0.0:
+            return distance_entry(table, floored, model, radius, xi, yi, th)
+        return float(v)
+
+    rs_types = np.empty(5, dtype=np.int64)
+    rs_lengths = np.empty(5)
+    dth_step = HEADING_STEP * bin_size
+
+    def shot_may_pass(x: float, y: float, th: float) -> bool:
+        """The first test of :func:`~navstack.planning.hybrid_astar.analytic.refine`: the
+        shortest curve to the goal is short enough and every sample is free.  Most shots
+        fail it, and here that costs no call with two dozen array arguments."""
+        d = shortest_path(model, x, y, th, gx, gy, gth, radius, rs_types, rs_lengths)
+        if not d <= fp[FP_MAXLEN] or d < math.sqrt(2.0):
+            return False
+        n = sample_path(x, y, th, rs_types, rs_lengths, radius, fp[FP_STEP], ascr, asdir,
+                        dth_step)
+        if n < 0:
+            return False
+        for k in range(n):
+            if check(ascr[k, 0], ascr[k, 1], round(ascr[k, 2] / bin_size) % bins) < 0:
+                return False
+        return True
+
     def heuristic(cx: int, cy: int, b: int) -> float:
         """max(obstacle, distance) heuristic of cell (cx, cy), bin b (Nav2)."""
         bx, by = cx // down, cy // down
-        oh = obstacle_query(by * wd + bx, hweight, wd, hdist, hstamp, hkey, hnode, hpos,
-                            hstate)
+        oh = obstacle(by * wd + bx)
         if oh == math.inf:
             return math.inf
         if down > 1:
@@ -158,16 +237,13 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                 wgt = (ax if q & 1 else 1.0 - ax) * (ay if q >> 1 else 1.0 - ay)
                 if wgt <= 0.0 or qx < 0 or qy < 0 or qx >= wd or qy >= hd:
                     continue
-                hq = obstacle_query(qy * wd + qx, hweight, wd, hdist, hstamp, hkey, hnode,
-                                    hpos, hstate)
+                hq = obstacle(qy * wd + qx)
                 if hq != math.inf:
                     acc += wgt * hq
                     wsum += wgt
             if wsum > 0.0:
                 oh = acc / wsum
-        dh = distance_query(table, floored, model, radius, bins, cx + 0.5, cy + 0.5, b, gx,
-                            gy, goal_bin, cos_g, sin_g)
-        return max(oh * down, dh)
+        return max(oh * down, distance(cx, cy, b))
 
     def push(size: int, f: float, node: int) -> int:
         i = size
@@ -255,16 +331,20 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
         counter = min(counter, desired)
         if counter <= 0:
             counter = desired
-            n_a, from_node = refine(u, nodes, gx, gy, gth, ip[IP_MODEL], fp[FP_RADIUS],
-                                    fp[FP_MAXLEN], fp[FP_MAXCOST], ip[IP_OVERRIDE] != 0, cpen,
-                                    fp[FP_STEP], bins, data, off_x, off_y, starts, border,
-                                    possible, allow_unknown, abest, adir, acost, ascr,
-                                    asdir, ascost)
-            if n_a >= 0:
-                istate[I_ANA_N] = n_a
-                istate[I_ANA_NODE] = from_node
-                status = FOUND_ANALYTIC
-                break
+            # a shot longer than analytic_expansion_max_length is rejected and no curve is
+            # shorter than the straight line: skip the call (and its array arguments)
+            if (math.hypot(nodes[u, N_X] - gx, nodes[u, N_Y] - gy) <= fp[FP_MAXLEN]
+                    and shot_may_pass(nodes[u, N_X], nodes[u, N_Y], nodes[u, N_TH])):
+                n_a, from_node = refine(u, nodes, gx, gy, gth, ip[IP_MODEL], fp[FP_RADIUS],
+                                        fp[FP_MAXLEN], fp[FP_MAXCOST], ip[IP_OVERRIDE] != 0,
+                                        cpen, fp[FP_STEP], bins, data, off_x, off_y, starts,
+                                        border, possible, allow_unknown, abest, adir, acost,
+                                        ascr, asdir, ascost)
+                if n_a >= 0:
+                    istate[I_ANA_N] = n_a
+                    istate[I_ANA_NODE] = from_node
+                    status = FOUND_ANALYTIC
+                    break
         counter -= 1
         # 3) goal test, then tolerance / on-approach
         ux, uy, ub = nodes[u, N_X], nodes[u, N_Y], int(nodes[u, N_BIN])
@@ -303,9 +383,8 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
             # collision along the primitive
             c = int(data[vcy, vcx])
             for k in range(0 if sweep_free else mnsamp[p]):
-                c = pose_check(data, ux + msamp[p, ub, k, 0], uy + msamp[p, ub, k, 1],
-                               int(msamp[p, ub, k, 2]), off_x, off_y, starts, border,
-                               possible, allow_unknown)
+                c = check(ux + msamp[p, ub, k, 0], uy + msamp[p, ub, k, 1],
+                          int(msamp[p, ub, k, 2]))
                 if c < 0:
                     break
             if c < 0:

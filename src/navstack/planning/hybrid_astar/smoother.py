@@ -161,8 +161,8 @@ def headings(xy: NDArray[np.float64], h0: float, h1: float, reverse: bool) -> ND
 
 @nb.njit(cache=True)
 def segment_blocked(xy: NDArray[np.float64], th: NDArray[np.float64], bins: int,
-                    data: NDArray[np.uint8], off_x: NDArray[np.int64],
-                    off_y: NDArray[np.int64], starts: NDArray[np.int64], border: int,
+                    data: NDArray[np.uint8], off_x: NDArray[np.int16],
+                    off_y: NDArray[np.int16], starts: NDArray[np.int64], border: int,
                     possible_cost: int, allow_unknown: bool) -> NDArray[np.bool_]:
     """``bad[i]``: the motion from pose ``i`` to ``i + 1`` (interpolated densely enough
     for the conservative cell sets) touches an obstacle."""
@@ -199,8 +199,8 @@ def segments(direction: NDArray[np.int8]) -> list[tuple[int, int]]:
 
 def smooth(xyt: NDArray[np.float64], direction: NDArray[np.int8], *, kappa_max: float,
            w_data: float, w_smooth: float, tolerance: float, max_its: int, passes: int,
-           res: float, bins: int, data: NDArray[np.uint8], off_x: NDArray[np.int64],
-           off_y: NDArray[np.int64], starts: NDArray[np.int64], border: int,
+           res: float, bins: int, data: NDArray[np.uint8], off_x: NDArray[np.int16],
+           off_y: NDArray[np.int16], starts: NDArray[np.int64], border: int,
            possible_cost: int, allow_unknown: bool) -> NDArray[np.float64]:
     """Smoothed copy of a path ``(N, 3)`` in cell coordinates (see module docstring)."""
     out = np.array(xyt, dtype=np.float64)
