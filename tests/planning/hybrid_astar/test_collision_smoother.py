@@ -34,14 +34,12 @@ def test_cell_sets_cover_every_pose_they_stand_for() -> None:
     """Any pose within the slack of a sub-cell centre and bin overlaps only set cells."""
     bins = 72
     cells = FootprintCells(ROBOT.polygon, RES, bins)
-    assert len(cells.starts) == bins * SUBCELLS**2 + 1
+    assert len(cells.starts) == 2 * bins * SUBCELLS**2 + 1
     poly = ROBOT.polygon / RES
     rng = np.random.default_rng(2)
     for b, sx, sy in ((0, 0, 0), (7, 3, 1), (18, 2, 2), (41, 0, 3), (63, 3, 3)):
         i = set_index(b, sx, sy)
-        have = {(int(x), int(y)) for x, y in zip(cells.off_x[cells.starts[i]:cells.starts[i + 1]],
-                                                   cells.off_y[cells.starts[i]:cells.starts[i + 1]],
-                                                   strict=True)}
+        have = {(int(x), int(y)) for x, y in cells.offsets(i)}
         cx, cy = (sx + 0.5) / SUBCELLS - 0.5, (sy + 0.5) / SUBCELLS - 0.5
         for _ in range(40):
             dx, dy = rng.uniform(-POSE_SLACK, POSE_SLACK, 2) + np.array([cx, cy])
@@ -63,8 +61,7 @@ def test_pose_check_reads_the_set_of_the_poses_sub_cell() -> None:
     near, far = set_index(b, 0, 0), set_index(b, SUBCELLS - 1, SUBCELLS - 1)
 
     def offsets(i: int) -> set[tuple[int, int]]:
-        sl = slice(cells.starts[i], cells.starts[i + 1])
-        return set(zip(cells.off_x[sl].tolist(), cells.off_y[sl].tolist(), strict=True))
+        return {(int(x), int(y)) for x, y in cells.offsets(i)}
 
     only_far = offsets(far) - offsets(near)
     assert only_far  # the sub-cells' sets differ
@@ -76,14 +73,16 @@ def test_pose_check_reads_the_set_of_the_poses_sub_cell() -> None:
     assert pose_check(data, 20.95, 20.95, b, *args) == -1
 
 
-def test_sets_without_the_inscribed_core_give_the_same_verdicts() -> None:
-    """Leaving out the offsets the centre's INSCRIBED cost already covers changes no check."""
+def test_skipping_the_inscribed_core_gives_the_same_verdicts() -> None:
+    """Skipping the offsets the centre's INSCRIBED cost already covers changes no check,
+    near the map's edge included (a core cell off the map is still a collision)."""
     lut = cost_lut(5, RES, ROBOT.inscribed_radius, INFLATION[1])
     covered = int(np.nonzero(lut[:-1] >= 253)[0].max())
     assert covered == 4  # (0.2 m / 0.1 m)^2
     full = FootprintCells(ROBOT.polygon, RES, 72)
     trimmed = FootprintCells(ROBOT.polygon, RES, 72, covered_d2=covered)
-    assert len(trimmed.off_x) < 0.9 * len(full.off_x)
+    read = sum(trimmed.starts[2 * i + 1] - trimmed.starts[2 * i] for i in range(72 * 16))
+    assert read < 0.9 * len(full.off_x)  # offsets read away from the edge
     assert trimmed.reach == full.reach
     rng = np.random.default_rng(5)
     occupied = rng.random((60, 60)) < 0.03  # scattered single-cell obstacles
@@ -112,6 +111,8 @@ def test_possible_collision_cost_is_the_inflation_cost_at_the_reach() -> None:
     lut = cost_lut(11, 0.05, 0.2, 5.0)
     assert possible_collision_cost(7.3, 0.05, 0.2, 0.55, 5.0) == int(lut[53])  # floor(7.3^2)
     assert possible_collision_cost(12.0, 0.05, 0.2, 0.55, 5.0) == 0  # beyond the inflation
+    # an offset (8, 1) away: a lethal cell there costs the centre lut[65], not less
+    assert possible_collision_cost(math.hypot(8, 1), 0.05, 0.2, 0.55, 5.0) == int(lut[65])
 
 
 def test_motion_primitives_follow_nav2_geometry() -> None:

@@ -122,19 +122,20 @@ def _bin_cells(poly: NDArray[np.float64], theta: float, half_range: float, n_hea
 class FootprintCells:
     """Per-(bin, sub-cell) conservative footprint cell offsets for one grid resolution.
 
-    ``offsets[starts[i]:starts[i + 1]]`` are the ``(dx, dy)`` cell offsets, from the
-    pose's cell, of set ``i = set_index(b, sx, sy)`` (bin ``b``, sub-cell column ``sx``
-    and row ``sy``);
-    ``reach`` is the largest centre-to-centre distance of any offset [cells] (used for
-    the possibly-inscribed shortcut and the map-border margin).
+    Set ``i = set_index(b, sx, sy)`` (bin ``b``, sub-cell column ``sx`` and row ``sy``)
+    holds the ``(dx, dy)`` cell offsets, from the pose's cell, ``off_x/off_y[starts[2 i]:
+    starts[2 i + 2]]``; ``reach`` is the largest centre-to-centre distance of any offset
+    [cells] (used for the possibly-inscribed shortcut and the map-border margin).
 
-    ``covered_d2``: offsets with ``dx^2 + dy^2 <= covered_d2`` are left out.  The planner
-    passes the largest squared cell distance the inflation marks INSCRIBED (the
-    footprint's inscribed radius): a lethal cell that close makes the centre cell
-    INSCRIBED, which :func:`pose_check` rejects before it reads the set, so those cells
-    can never decide a check (about a third of a 0.5 x 0.4 m footprint's cells at 5 cm).
-    Only valid when the costmap was inflated with that radius and unknown cells are
-    traversable (unknown cells are not inflated); otherwise keep the default ``-1``.
+    ``covered_d2``: offsets with ``dx^2 + dy^2 <= covered_d2`` form the set's *core*,
+    stored last, from ``starts[2 i + 1]``.  The planner passes the largest squared cell
+    distance the inflation marks INSCRIBED (the footprint's inscribed radius): a lethal
+    cell that close makes the centre cell INSCRIBED, which :func:`pose_check` rejects
+    before it reads the set, so away from the map's edge the core can never decide a
+    check and is skipped (about a third of a 0.5 x 0.4 m footprint's cells at 5 cm); near
+    the edge it is read, since a core cell off the map is a collision.  Only valid when
+    the costmap was inflated with that radius and unknown cells are traversable (unknown
+    cells are not inflated); otherwise keep the default ``-1`` (no core).
     """
 
     def __init__(self, polygon_m: NDArray[np.float64], resolution: float, bins: int,
@@ -153,18 +154,13 @@ class FootprintCells:
         sets = [_bin_cells(poly, b * bin_size, half, n_head, radius, threshold, sub[sx],
                            sub[sy])
                 for b in range(bins) for sy in range(SUBCELLS) for sx in range(SUBCELLS)]
-        self.starts = np.zeros(len(sets) + 1, dtype=np.int64)
-        self.starts[1:] = np.cumsum([len(s) for s in sets])
-        cells = np.concatenate(sets)
-        if covered_d2 >= 0:
-            # a lethal cell this close to the centre makes the centre cell INSCRIBED, which
-            # pose_check rejects before reading the set: these offsets never decide
-            d2 = cells[:, 0].astype(np.int64) ** 2 + cells[:, 1].astype(np.int64) ** 2
-            keep = d2 > covered_d2
-            counts = [int(np.sum(keep[a:b])) for a, b in zip(
-                self.starts[:-1], self.starts[1:], strict=True)]
-            cells = cells[keep]
-            self.starts[1:] = np.cumsum(counts)
+        parts = []
+        for cells_i in sets:
+            core = cells_i[:, 0] ** 2 + cells_i[:, 1] ** 2 <= covered_d2
+            parts += [cells_i[~core], cells_i[core]]
+        self.starts = np.zeros(len(parts) + 1, dtype=np.int64)
+        self.starts[1:] = np.cumsum([len(part) for part in parts])
+        cells = np.concatenate(parts)
         if int(np.abs(cells).max()) > np.iinfo(np.int16).max:
             raise ValueError(f"footprint reaches {int(np.abs(cells).max())} cells at "
                              f"{resolution} m: more than the int16 cell offsets hold; "
@@ -177,6 +173,11 @@ class FootprintCells:
         self.border = math.ceil(self.reach) + 1
         self.resolution = resolution
         self.bins = bins
+
+    def offsets(self, i: int) -> NDArray[np.int16]:
+        """All offsets ``(k, 2)`` of set ``i``, core included."""
+        sl = slice(self.starts[2 * i], self.starts[2 * i + 2])
+        return np.column_stack((self.off_x[sl], self.off_y[sl]))
 
 
 def possible_collision_cost(reach_cells: float, resolution: float, inscribed_radius: float,
@@ -193,7 +194,9 @@ def possible_collision_cost(reach_cells: float, resolution: float, inscribed_rad
     if r_cells <= 0:
         return 0
     lut = cost_lut(r_cells, resolution, inscribed_radius, cost_scaling_factor)
-    d2 = math.floor(reach_cells * reach_cells)
+    # the reach is usually the root of an integer (an offset's length): a rounding error
+    # must not drop the squared distance below it (8.06... = sqrt(65) squares to 64.99...)
+    d2 = math.floor(reach_cells * reach_cells + 1e-6)
     if d2 > r_cells * r_cells:
         return 0
     return int(lut[d2])
@@ -230,13 +233,14 @@ def pose_check(data: NDArray[np.uint8], x: float, y: float, b: int,
             return -1
     elif c >= INSCRIBED_INFLATED_OBSTACLE:
         return -1
-    if (c < possible_cost and border <= cx < w - border and border <= cy < h - border):
+    inside = border <= cx < w - border and border <= cy < h - border
+    if c < possible_cost and inside:
         return c
-    # the set of the bin and sub-cell: lethal, off the map or (unless allowed) unknown
-    # cells -> collision
+    # the set of the bin and sub-cell (its core only near the edge, see FootprintCells):
+    # lethal, off the map or (unless allowed) unknown cells -> collision
     i = set_index(b, min(int((x - cx) * SUBCELLS), SUBCELLS - 1),
                   min(int((y - cy) * SUBCELLS), SUBCELLS - 1))
-    for k in range(starts[i], starts[i + 1]):
+    for k in range(starts[2 * i], starts[2 * i + 1] if inside else starts[2 * i + 2]):
         x_k = cx + off_x[k]
         y_k = cy + off_y[k]
         if x_k < 0 or y_k < 0 or x_k >= w or y_k >= h:

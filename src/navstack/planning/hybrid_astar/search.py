@@ -165,11 +165,12 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                 return -1
         elif c >= INSCRIBED_INFLATED_OBSTACLE:
             return -1
-        if c < possible and border <= cx < w - border and border <= cy < h_map - border:
+        inside = border <= cx < w - border and border <= cy < h_map - border
+        if c < possible and inside:
             return c
         i = set_index(b, min(int((x - cx) * SUBCELLS), SUBCELLS - 1),
                       min(int((y - cy) * SUBCELLS), SUBCELLS - 1))
-        for k in range(starts[i], starts[i + 1]):
+        for k in range(starts[2 * i], starts[2 * i + 1] if inside else starts[2 * i + 2]):
             x_k = cx + off_x[k]
             y_k = cy + off_y[k]
             if x_k < 0 or y_k < 0 or x_k >= w or y_k >= h_map:
