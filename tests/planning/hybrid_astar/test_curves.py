@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from navstack.planning.hybrid_astar.curves import DUBIN, REEDS_SHEPP, sample, shortest
+from navstack.planning.hybrid_astar.curves import (
+    DUBIN,
+    REEDS_SHEPP,
+    sample,
+    sample_path,
+    shortest,
+    shortest_path,
+)
 
 R = 1.7  # an arbitrary turning radius: every closed form below scales with it
 
@@ -76,3 +83,31 @@ def test_random_paths_reach_the_goal_with_bounded_curvature() -> None:
         # Reeds-Shepp distance is symmetric
         assert shortest(REEDS_SHEPP, goal, start, R)[0] == pytest.approx(
             lengths[REEDS_SHEPP], abs=1e-7)
+
+
+def test_reeds_shepp_candidates_come_shortest_first_and_all_reach_the_goal() -> None:
+    """``above``: the next Reeds-Shepp word after one of that length (analytic shots try
+    them in turn); each is a valid path to the goal, and they run out with ``inf``."""
+    rng = np.random.default_rng(7)
+    counts = []
+    for _ in range(100):
+        start = (*rng.uniform(-3, 3, 2), rng.uniform(-math.pi, math.pi))
+        goal = (*rng.uniform(-3, 3, 2), rng.uniform(-math.pi, math.pi))
+        types, segs = np.empty(5, dtype=np.int64), np.empty(5)
+        d, n = -1.0, 0
+        while True:
+            prev = d
+            d = shortest_path(REEDS_SHEPP, *start, *goal, R, types, segs, prev)
+            if d == math.inf:
+                break
+            if prev < 0.0:
+                assert d == pytest.approx(shortest(REEDS_SHEPP, start, goal, R)[0], abs=1e-12)
+            assert d > prev
+            assert np.sum(np.abs(segs)) * R == pytest.approx(d, abs=1e-9)
+            out, direction = np.empty((2000, 3)), np.empty(2000, dtype=np.int8)
+            k = sample_path(*start, types, segs, R, 0.05, out, direction)
+            assert math.hypot(out[k - 1, 0] - goal[0], out[k - 1, 1] - goal[1]) < 1e-9
+            assert abs(math.remainder(out[k - 1, 2] - goal[2], 2 * math.pi)) < 1e-9
+            n += 1
+        counts.append(n)
+    assert min(counts) >= 2 and max(counts) <= 48

@@ -110,10 +110,11 @@ def _dubins_best(x: float, y: float, phi: float) -> tuple[float, int, float, flo
 
 
 @nb.njit(cache=True)
-def _rs_best(x: float, y: float, phi: float) -> tuple[float, int, int, int, float, float,
-                                                      float]:
+def _rs_best(x: float, y: float, phi: float, above: float = -1.0
+             ) -> tuple[float, int, int, int, float, float, float]:
     """``(length, family, backwards, variant, t, u, v)`` of the shortest Reeds-Shepp path
-    from the origin (heading 0) to ``(x, y, phi)`` with radius 1.
+    from the origin (heading 0) to ``(x, y, phi)`` with radius 1 that is longer than
+    ``above`` (the next candidate after one of that length; family ``-1`` if none).
 
     Families are formulas 8.1, 8.2, 8.3, 8.7, 8.8, 8.9, 8.10 and 8.11 of Reeds & Shepp;
     each is evaluated on the plain goal and its time-flip (variant 1), reflection (2) and
@@ -224,7 +225,7 @@ def _rs_best(x: float, y: float, phi: float) -> tuple[float, int, int, int, floa
                 if not ok:
                     continue
                 total = abs(t) + abs(u) + abs(v) + extra
-                if total < best:
+                if above + 1e-9 < total < best:
                     best, bf, bb, bv, bt, bu, bw = total, fam, back, variant, t, u, v
     return best, bf, bb, bv, bt, bu, bw
 
@@ -232,13 +233,14 @@ def _rs_best(x: float, y: float, phi: float) -> tuple[float, int, int, int, floa
 @nb.njit(cache=True)
 def shortest_path(model: int, x0: float, y0: float, th0: float, x1: float, y1: float,
                   th1: float, radius: float, types: NDArray[np.int64],
-                  lengths: NDArray[np.float64]) -> float:
+                  lengths: NDArray[np.float64], above: float = -1.0) -> float:
     """Shortest path of ``model`` (DUBIN / REEDS_SHEPP) between two poses.
 
     Coordinates in any consistent unit; ``radius`` is the minimum turning radius in that
     unit.  Fills ``types[:5]`` (NOP for unused) and the signed ``lengths[:5]``, which
     come back normalised (multiply by ``radius``); returns the length in the caller's
-    unit.
+    unit.  ``above`` (REEDS_SHEPP only, caller's unit): the shortest path longer than
+    that instead, ``inf`` when there is none.
     """
     dx, dy = x1 - x0, y1 - y0
     c, s = math.cos(th0), math.sin(th0)
@@ -253,7 +255,9 @@ def shortest_path(model: int, x0: float, y0: float, th0: float, x1: float, y1: f
             types[i] = _DUBINS_TYPES[word, i]
         lengths[0], lengths[1], lengths[2] = t, p, q
         return radius * best
-    best, fam, back, variant, t, u, v = _rs_best(x, y, th1 - th0)
+    best, fam, back, variant, t, u, v = _rs_best(x, y, th1 - th0, above / radius)
+    if fam < 0:
+        return math.inf
     # segment layout of the family (the pi/2 segments are fixed)
     n = 3
     if fam == 2 and back == 1:

@@ -45,9 +45,9 @@ from navstack.costmap.costmap_2d import (
     LETHAL_OBSTACLE,
     NO_INFORMATION,
 )
-from navstack.planning.hybrid_astar.analytic import refine
+from navstack.planning.hybrid_astar.analytic import RS_CANDIDATES, refine
 from navstack.planning.hybrid_astar.collision import HEADING_STEP, SUBCELLS, set_index
-from navstack.planning.hybrid_astar.curves import sample_path, shortest_path
+from navstack.planning.hybrid_astar.curves import REEDS_SHEPP, sample_path, shortest_path
 from navstack.planning.hybrid_astar.heuristics import distance_entry, obstacle_expand
 
 RUNNING, FOUND, FOUND_ANALYTIC, FOUND_APPROACH, EXHAUSTED, GROW = range(6)
@@ -205,17 +205,25 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
         """The first test of :func:`~navstack.planning.hybrid_astar.analytic.refine`: the
         shortest curve to the goal is short enough and every sample is free.  Most shots
         fail it, and here that costs no call with two dozen array arguments."""
-        d = shortest_path(model, x, y, th, gx, gy, gth, radius, rs_types, rs_lengths)
-        if not d <= fp[FP_MAXLEN] or d < math.sqrt(2.0):
-            return False
-        n = sample_path(x, y, th, rs_types, rs_lengths, radius, fp[FP_STEP], ascr, asdir,
-                        dth_step)
-        if n < 0:
-            return False
-        for k in range(n):
-            if check(ascr[k, 0], ascr[k, 1], round(ascr[k, 2] / bin_size) % bins) < 0:
+        d = -1.0
+        for _cand in range(RS_CANDIDATES if model == REEDS_SHEPP else 1):
+            d = shortest_path(model, x, y, th, gx, gy, gth, radius, rs_types, rs_lengths, d)
+            if not d <= fp[FP_MAXLEN]:
                 return False
-        return True
+            if d < math.sqrt(2.0):
+                continue
+            n = sample_path(x, y, th, rs_types, rs_lengths, radius, fp[FP_STEP], ascr,
+                            asdir, dth_step)
+            if n < 0:
+                return False
+            free = True
+            for k in range(n):
+                if check(ascr[k, 0], ascr[k, 1], round(ascr[k, 2] / bin_size) % bins) < 0:
+                    free = False
+                    break
+            if free:
+                return True
+        return False
 
     def heuristic(cx: int, cy: int, b: int) -> float:
         """max(obstacle, distance) heuristic of cell (cx, cy), bin b (Nav2)."""
