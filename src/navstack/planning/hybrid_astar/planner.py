@@ -295,8 +295,8 @@ class HybridAStar:
                      m.dx, m.dy, m.dbin, m.turn, m.reverse, m.travel, m.samples, m.n_samples,
                      self.cells.off_x, self.cells.off_y, self.cells.starts, oh.weight, oh.dist,
                      oh.stamp, oh.hkey, oh.hnode, oh.hpos, oh.state, self._table, ws.nodes,
-                     ws.cells, ws.blocks, ws.hk, ws.hn, ws.abest, ws.adir, ws.acost, ws.ascr,
-                     ws.asdir, ws.ascost, ws.istate, ws.fstate)
+                     ws.cells, ws.blocks, ws.block_h, ws.hk, ws.hn, ws.abest, ws.adir, ws.acost,
+                     ws.ascr, ws.asdir, ws.ascost, ws.istate, ws.fstate)
         h0 = float(ws.fstate[hs.F_H0])
         if h0 == math.inf:
             raise NoValidPath(
@@ -384,8 +384,8 @@ class HybridAStar:
                 budget, self._no_start, data, ip, fp, m.dx, m.dy, m.dbin, m.turn, m.reverse,
                 m.travel, m.samples, m.n_samples, self.cells.off_x, self.cells.off_y,
                 self.cells.starts, oh.weight, oh.dist, oh.stamp, oh.hkey, oh.hnode, oh.hpos,
-                oh.state, self._table, ws.nodes, ws.cells, ws.blocks, ws.hk, ws.hn, ws.abest,
-                ws.adir, ws.acost, ws.ascr, ws.asdir, ws.ascost, ws.istate, ws.fstate)
+                oh.state, self._table, ws.nodes, ws.cells, ws.blocks, ws.block_h, ws.hk, ws.hn,
+                ws.abest, ws.adir, ws.acost, ws.ascr, ws.asdir, ws.ascost, ws.istate, ws.fstate)
             if compiling:
                 t0 = time.perf_counter()
                 compiling = False

@@ -17,7 +17,8 @@ Storage is allocated once per planner and grown on demand (the kernel returns
 * (cell, bin) -> node: a per-cell block of ``bins`` node ids allocated the first time
   a cell is touched, found through ``cells[cell] = (stamp, block)`` where the stamp is a
   per-search generation number, so nothing of map size is cleared between plans;
-* open list: a binary heap of ``(f, node)`` with lazy deletion (a node is queued again
+* open list: a 4-ary heap of ``(f, node)`` (half the levels of a binary heap, the four
+  children in one cache line) with lazy deletion (a node is queued again
   when its cost improves and skipped once closed), as Nav2's priority queue.
 
 Traversal cost (Nav2 ``NodeHybrid::getTraversalCost``)::
@@ -84,7 +85,8 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                hstamp: NDArray[np.int32], hkey: NDArray[np.float64],
                hnode: NDArray[np.int32], hpos: NDArray[np.int32], hstate: NDArray[np.int64],
                table: NDArray[np.float32], nodes: NDArray[np.float64],
-               cells: NDArray[np.int32], blocks: NDArray[np.int32], hk: NDArray[np.float64],
+               cells: NDArray[np.int32], blocks: NDArray[np.int32],
+               block_h: NDArray[np.float64], hk: NDArray[np.float64],
                hn: NDArray[np.int32], abest: NDArray[np.float64], adir: NDArray[np.int8],
                acost: NDArray[np.int64], ascr: NDArray[np.float64], asdir: NDArray[np.int8],
                ascost: NDArray[np.int64], istate: NDArray[np.int64],
@@ -225,8 +227,8 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                 return True
         return False
 
-    def heuristic(cx: int, cy: int, b: int) -> float:
-        """max(obstacle, distance) heuristic of cell (cx, cy), bin b (Nav2)."""
+    def obstacle_at(cx: int, cy: int) -> float:
+        """Obstacle heuristic of full-grid cell (cx, cy) (``inf``: goal unreachable)."""
         bx, by = cx // down, cy // down
         oh = obstacle(by * wd + bx)
         if oh == math.inf:
@@ -252,12 +254,12 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                     wsum += wgt
             if wsum > 0.0:
                 oh = acc / wsum
-        return max(oh * down, distance(cx, cy, b))
+        return oh * down
 
     def push(size: int, f: float, node: int) -> int:
         i = size
         while i > 0:
-            par = (i - 1) >> 1
+            par = (i - 1) >> 2
             if hk[par] <= f:
                 break
             hk[i] = hk[par]
@@ -288,7 +290,9 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
             blocks[0, i] = -1
         blocks[0, sb] = 0
         istate[I_BLOCKS] = 1
-        h0 = heuristic(cx, cy, sb)
+        oh0 = obstacle_at(cx, cy)
+        block_h[0] = oh0
+        h0 = max(oh0, distance(cx, cy, sb))
         nodes[0, N_X] = start[0]
         nodes[0, N_Y] = start[1]
         nodes[0, N_TH] = start[2]
@@ -317,11 +321,13 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
             node = hn[size]
             i = 0
             while True:
-                c = 2 * i + 1
-                if c >= size:
+                first = 4 * i + 1
+                if first >= size:
                     break
-                if c + 1 < size and hk[c + 1] < hk[c]:
-                    c += 1
+                c = first
+                for j in range(first + 1, min(first + 4, size)):
+                    if hk[j] < hk[c]:
+                        c = j
                 if key <= hk[c]:
                     break
                 hk[i] = hk[c]
@@ -407,14 +413,18 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                 tc *= revp
             g = gu + tc
             if v < 0:
-                hv = heuristic(vcx, vcy, vb)
-                if hv == math.inf:
+                # max(obstacle, distance) (Nav2); the obstacle part is kept per cell
+                known = cells[cell, 0] == gen
+                oh = block_h[cells[cell, 1]] if known else obstacle_at(vcx, vcy)
+                if oh == math.inf:
                     continue  # cannot reach the goal even as a point robot
-                if cells[cell, 0] != gen:
+                hv = max(oh, distance(vcx, vcy, vb))
+                if not known:
                     cells[cell, 0] = gen
                     cells[cell, 1] = nblk
                     for i in range(bins):
                         blocks[nblk, i] = -1
+                    block_h[nblk] = oh
                     nblk += 1
                 v = nn
                 nn += 1

@@ -34,6 +34,7 @@ class SearchWorkspace:
         self.hk = np.zeros(2 * nodes)
         self.hn = np.zeros(2 * nodes, dtype=np.int32)
         self.blocks = np.zeros((nodes // 4, bins), dtype=np.int32)
+        self.block_h = np.zeros(nodes // 4)  # obstacle heuristic of each block's cell
         self.istate = np.zeros(N_ISTATE, dtype=np.int64)
         self.fstate = np.zeros(N_FSTATE)
         self.abest = np.zeros((0, 3))
@@ -56,6 +57,7 @@ class SearchWorkspace:
         self.hk = _grow(self.hk, 2 * len(self.hk))
         self.hn = _grow(self.hn, 2 * len(self.hn))
         self.blocks = _grow(self.blocks, 2 * len(self.blocks))
+        self.block_h = _grow(self.block_h, 2 * len(self.block_h))
 
     @property
     def nodes_used(self) -> int:
