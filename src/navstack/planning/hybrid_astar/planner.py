@@ -158,15 +158,20 @@ class HybridAStar:
         # a primitive's samples lie within its travel length of the parent pose: cells of
         # their footprint sets are within reach + travel + 2 half-diagonals of its cell
         sweep = self.cells.reach + float(self.motion.travel.max()) + math.sqrt(2.0)
+        # ... and those between the ends within half a travel of one end
+        mid = self.cells.reach + 0.5 * float(self.motion.travel.max()) + math.sqrt(2.0)
         self._sweep_border = self.cells.border + math.ceil(float(self.motion.travel.max())) + 1
         if self.inflation is not None:
             self._possible = possible_collision_cost(
                 self.cells.reach, res, self.footprint.inscribed_radius, *self.inflation)
             self._sweep_cost = possible_collision_cost(
                 sweep, res, self.footprint.inscribed_radius, *self.inflation)
+            self._mid_cost = possible_collision_cost(
+                mid, res, self.footprint.inscribed_radius, *self.inflation)
         else:
             self._possible = 0
             self._sweep_cost = 0
+            self._mid_cost = 0
         size, floored, ceiling = table_dims(p.lookup_table_size, res)
         self._table = new_table(size, ceiling, bins)
         self._floored = floored
@@ -344,6 +349,7 @@ class HybridAStar:
         ip[hs.IP_QUAD] = int(p.use_quadratic_cost_penalty)
         ip[hs.IP_SWEEP_COST] = self._sweep_cost
         ip[hs.IP_SWEEP_BORDER] = self._sweep_border
+        ip[hs.IP_MID_COST] = self._mid_cost
         fp = np.zeros(hs.N_FP)
         fp[hs.FP_REWARD] = 1.0 - p.retrospective_penalty
         fp[hs.FP_COST_PEN] = p.cost_penalty

@@ -66,8 +66,8 @@ N_FSTATE = 2
 # ip (integer parameters) layout
 (IP_MODEL, IP_ALLOW_UNKNOWN, IP_POSSIBLE, IP_BORDER, IP_GOAL_CELL, IP_GOAL_BIN,
  IP_MAX_APPROACH, IP_OVERRIDE, IP_FLOORED, IP_WD, IP_DOWN, IP_BINS, IP_QUAD, IP_SWEEP_COST,
- IP_SWEEP_BORDER) = range(15)
-N_IP = 15
+ IP_SWEEP_BORDER, IP_MID_COST) = range(16)
+N_IP = 16
 # fp (float parameters) layout
 (FP_REWARD, FP_COST_PEN, FP_NSP, FP_CHP, FP_REVP, FP_RATIO, FP_MAXLEN, FP_MAXCOST, FP_TOL,
  FP_RADIUS, FP_GX, FP_GY, FP_GTH, FP_STEP) = range(14)
@@ -114,6 +114,7 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
     border = ip[IP_BORDER]
     sweep_cost = ip[IP_SWEEP_COST]
     sweep_border = ip[IP_SWEEP_BORDER]
+    mid_cost = ip[IP_MID_COST]
     goal_cell = ip[IP_GOAL_CELL]
     goal_bin = ip[IP_GOAL_BIN]
     reward, cpen = fp[FP_REWARD], fp[FP_COST_PEN]
@@ -376,9 +377,12 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                 break
         # 4) expand the primitives; when the parent's cell is cheaper than the cost at
         # the reach of every primitive's footprint sweep, no sample can collide
-        sweep_free = (int(data[ucy, ucx]) < sweep_cost
-                      and sweep_border <= ucx < w - sweep_border
-                      and sweep_border <= ucy < h_map - sweep_border)
+        inner = (sweep_border <= ucx < w - sweep_border
+                 and sweep_border <= ucy < h_map - sweep_border)
+        sweep_free = inner and int(data[ucy, ucx]) < sweep_cost
+        # every sample between the ends lies within half a primitive of one of them: when
+        # both end cells are cheaper than the cost at that reach, only the end is checked
+        parent_mid = inner and int(data[ucy, ucx]) < mid_cost
         parent_prim = (meta & 63) - 1
         parent_turn = mturn[parent_prim] if parent_prim >= 0 else -1
         gu = nodes[u, N_G]
@@ -397,7 +401,8 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
                     continue
             # collision along the primitive
             c = int(data[vcy, vcx])
-            for k in range(0 if sweep_free else mnsamp[p]):
+            first = mnsamp[p] - 1 if parent_mid and c < mid_cost else 0
+            for k in range(first, 0 if sweep_free else mnsamp[p]):
                 c = check(ux + msamp[p, ub, k, 0], uy + msamp[p, ub, k, 1],
                           int(msamp[p, ub, k, 2]))
                 if c < 0:
