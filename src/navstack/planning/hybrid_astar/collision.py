@@ -216,9 +216,10 @@ def pose_check(data: NDArray[np.uint8], x: float, y: float, b: int,
     """Collision check of a pose at continuous cell coordinates ``(x, y)``, bin ``b``.
 
     Returns the centre cell's cost (0..255) when free, ``-1`` when in collision.
-    Inlined into its callers (numba IR inlining): a call to a separately compiled
-    function increments and decrements the reference count of every array argument,
-    which cost more than the check itself in the search loop.
+    Inlined into its callers (numba IR inlining).  The search kernel keeps its own copy as
+    a closure (``search_run``'s ``check``; keep the two in step): even inlined, a call
+    increments and decrements the reference count of every array argument, which in the
+    search loop cost more than the check itself.
     """
     h, w = data.shape
     if x < 0.0 or y < 0.0:

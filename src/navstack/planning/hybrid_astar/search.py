@@ -155,7 +155,11 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
         return obstacle_expand(idx, hweight, wd, hdist, hstamp, hkey, hnode, hpos, hstate)
 
     def check(x: float, y: float, b: int) -> int:
-        """:func:`~navstack.planning.hybrid_astar.collision.pose_check` of pose (x, y, b)."""
+        """:func:`~navstack.planning.hybrid_astar.collision.pose_check` of pose (x, y, b).
+
+        A deliberate copy of it (keep the two in step): calling it, even inlined, costs
+        the reference counting of its four array arguments on every sample.
+        """
         if x < 0.0 or y < 0.0:
             return -1
         cx = int(x)
