@@ -465,10 +465,7 @@ class HybridAStar:
         if int(ws.cells[cell, 0]) != int(ws.istate[hs.I_GEN]):
             return np.zeros(0, dtype=np.int64)
         ids = ws.blocks[int(ws.cells[cell, 1])]
-        ok = ids >= 0
-        closed = np.zeros(len(ids), dtype=bool)
-        closed[ok] = ws.nodes[ids[ok], hs.N_META] >= hs.CLOSED
-        return np.nonzero(closed)[0]
+        return np.nonzero(ids <= -2)[0]  # closed nodes are stored as -2 - id
 
     def _smooth(self, raw: NDArray[np.float64], direction: NDArray[np.int8],
                 data: NDArray[np.uint8], res: float, costmap: Costmap2D) -> NDArray[np.float64]:

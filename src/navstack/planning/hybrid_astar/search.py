@@ -14,9 +14,10 @@ Storage is allocated once per planner and grown on demand (the kernel returns
   holding pose ``x, y`` [cells, continuous], heading ``th`` [rad], cost-so-far ``g``,
   heuristic ``h``, parent, bin and a packed ``meta`` = primitive + 1, centre cost
   (x 64) and the closed flag (x 16384);
-* (cell, bin) -> node: a per-cell block of ``bins`` node ids allocated the first time
-  a cell is touched, found through ``cells[cell] = (stamp, block)`` where the stamp is a
-  per-search generation number, so nothing of map size is cleared between plans;
+* (cell, bin) -> node: a per-cell block of ``bins`` node ids (``-1`` none, ``-2 - id``
+  once closed) allocated the first time a cell is touched, found through
+  ``cells[cell] = (stamp, block)`` where the stamp is a per-search generation number,
+  so nothing of map size is cleared between plans;
 * open list: a 4-ary heap of ``(f, node)`` (half the levels of a binary heap, the four
   children in one cache line) with lazy deletion (a node is queued again
   when its cost improves and skipped once closed), as Nav2's priority queue.
@@ -344,6 +345,10 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
         if meta >= CLOSED:
             continue
         nodes[u, N_META] = meta + CLOSED
+        # closed is also marked in the cell's block (-2 - id), so the children loop skips
+        # closed nodes without reading their rows (a cache miss per child)
+        blocks[cells[int(nodes[u, N_Y]) * w + int(nodes[u, N_X]), 1],
+               int(nodes[u, N_BIN])] = -2 - u
         expanded += 1
         # 2.1) analytic expansion at Nav2's cadence
         closest = min(closest, int(nodes[u, N_H]))
@@ -401,8 +406,8 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
             v = -1
             if cells[cell, 0] == gen:
                 v = blocks[cells[cell, 1], vb]
-                if v >= 0 and nodes[v, N_META] >= CLOSED:
-                    continue
+                if v <= -2:
+                    continue  # closed
             # collision along the primitive
             c = int(data[vcy, vcx])
             first = mnsamp[p] - 1 if parent_mid and c < mid_cost else 0
