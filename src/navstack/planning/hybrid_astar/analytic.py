@@ -3,14 +3,14 @@
 Nav2 ``AnalyticExpansion``: every few expansions (``analytic_expansion_ratio``) the
 search tries to connect the expanded node to the goal with the shortest Dubins /
 Reeds-Shepp curve (here: up to :data:`RS_CANDIDATES` Reeds-Shepp curves, shortest
-first, the first free one taken).  The shot is accepted when it is between ``sqrt(2)`` cells and
-``analytic_expansion_max_length`` long, every sample along it is collision-free, and
-its cost profile passes the ``analytic_expansion_max_cost`` rule (a cost above the
-limit is allowed only on the final approach into the goal, unless the shot is shorter
-than ``2 pi R`` and ``analytic_expansion_max_cost_override`` is set).  An accepted shot
-is then refined like Nav2's ``refineAnalyticPath``: start it up to 8 x 5 parents earlier
-while that keeps it valid without more direction changes, then try radii from ``R`` up
-to ``4 R`` in half-cell steps, keeping the best-scoring one
+first, the first free one taken).  The shot is accepted when it is between ``sqrt(2)``
+cells and ``analytic_expansion_max_length`` long, every sample along it is
+collision-free, and its cost profile passes the ``analytic_expansion_max_cost`` rule
+(a cost above the limit is allowed only on the final approach into the goal, unless the
+shot is shorter than ``2 pi R`` and ``analytic_expansion_max_cost_override`` is set).
+An accepted shot is then refined like Nav2's ``refineAnalyticPath``: start it up to
+8 x 5 parents earlier while that keeps it valid without more direction changes, then
+try radii from ``R`` up to ``4 R`` in half-cell steps, keeping the best-scoring one
 (``sum(step * (1 + cost_penalty * cost / 252))``).
 
 Samples are taken every :data:`~navstack.planning.hybrid_astar.collision.SAMPLE_STEP`

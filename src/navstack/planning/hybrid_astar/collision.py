@@ -145,7 +145,7 @@ class FootprintCells:
         radius = float(np.max(np.hypot(poly[:, 0], poly[:, 1])))
         bin_size = 2.0 * math.pi / bins
         half = heading_slack * bin_size
-        # headings sampled every 1/16 bin; the rotation between samples moves a vertex by
+        # headings sampled every 1/8 bin; the rotation between samples moves a vertex by
         # at most radius * step / 2, added to the threshold to stay conservative
         n_head = max(2, math.ceil(2.0 * heading_slack * 8)) + 1
         rot_margin = radius * (2.0 * half / (n_head - 1)) * 0.5

@@ -78,22 +78,6 @@ def heuristic_weights(data: NDArray[np.uint8], downsample: bool, cost_penalty: f
     return out
 
 
-@nb.njit(cache=True, inline="always")
-def obstacle_query(idx: int, weight: NDArray[np.float64], wd: int, dist: NDArray[np.float64],
-                   stamp: NDArray[np.int32], hkey: NDArray[np.float64],
-                   hnode: NDArray[np.int32], hpos: NDArray[np.int32],
-                   state: NDArray[np.int64]) -> float:
-    """Settled Dijkstra distance of coarse cell ``idx`` (``inf`` if unreachable).
-
-    The lookup of a settled cell is inlined into the caller (no call, so no reference
-    counting of the array arguments); only a cell not settled yet calls
-    :func:`obstacle_expand`.
-    """
-    if stamp[idx] == 2 * state[0] + 1:
-        return dist[idx]
-    return obstacle_expand(idx, weight, wd, dist, stamp, hkey, hnode, hpos, state)
-
-
 @nb.njit(cache=True)
 def obstacle_expand(idx: int, weight: NDArray[np.float64], wd: int,
                     dist: NDArray[np.float64], stamp: NDArray[np.int32],
@@ -101,6 +85,7 @@ def obstacle_expand(idx: int, weight: NDArray[np.float64], wd: int,
                     hpos: NDArray[np.int32], state: NDArray[np.int64]) -> float:
     """Settled Dijkstra distance of coarse cell ``idx`` (``inf`` if unreachable).
 
+    The search looks settled cells up itself and calls this for one not settled yet.
     Expands the resumable Dijkstra (indexed binary heap with decrease-key) until ``idx``
     is closed or the heap is empty.
     """

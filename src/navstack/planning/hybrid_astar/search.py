@@ -210,9 +210,10 @@ def search_run(max_expansions: int, start: NDArray[np.float64], data: NDArray[np
     dth_step = HEADING_STEP * bin_size
 
     def shot_may_pass(x: float, y: float, th: float) -> bool:
-        """The first test of :func:`~navstack.planning.hybrid_astar.analytic.refine`: the
-        shortest curve to the goal is short enough and every sample is free.  Most shots
-        fail it, and here that costs no call with two dozen array arguments."""
+        """The first test of :func:`~navstack.planning.hybrid_astar.analytic.refine`: one
+        of the :data:`RS_CANDIDATES` shortest curves to the goal is short enough and free
+        at every sample.  Most shots fail it, and here that costs no call with two dozen
+        array arguments."""
         d = -1.0
         for _cand in range(RS_CANDIDATES if model == REEDS_SHEPP else 1):
             d = shortest_path(model, x, y, th, gx, gy, gth, radius, rs_types, rs_lengths, d)
