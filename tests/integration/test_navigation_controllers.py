@@ -117,7 +117,7 @@ def test_runner_refuses_an_option_the_suite_does_not_take() -> None:
 def test_cli_bench_controller_errors_name_the_fix() -> None:
     from typer.testing import CliRunner
 
-    from navstack.interfaces.cli import app
+    from navstack.app import app
 
     runner = CliRunner()
     res = runner.invoke(app, ["bench", "navigation", "--quick", "--controller", "mpi"])

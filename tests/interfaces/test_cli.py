@@ -5,7 +5,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from navstack.interfaces.cli import app
+from navstack.app import app
 
 runner = CliRunner()
 

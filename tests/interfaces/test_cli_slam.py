@@ -7,7 +7,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from navstack.interfaces.cli import app
+from navstack.app import app
 
 runner = CliRunner()
 INTEL = Path(__file__).resolve().parents[1] / "data" / "carmen" / "intel_excerpt.log"

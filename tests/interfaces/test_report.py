@@ -11,9 +11,9 @@ import pytest
 from rosbags.highlevel import AnyReader
 from typer.testing import CliRunner
 
+from navstack.app import app
 from navstack.core.msgs import Pose2D
 from navstack.interfaces.bag_slam import run_bag
-from navstack.interfaces.cli import app
 from navstack.interfaces.report_metrics import clearance_at, clearance_field
 from navstack.sim.worlds import load_world
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from navstack.core.config_files import load_yaml, ros_parameters
 from navstack.core.errors import ConfigError
 from navstack.localization.amcl import AmclParams
-from navstack.runtime.config import load_yaml, ros_parameters
 
 NAV2_AMCL_YAML = """\
 amcl:

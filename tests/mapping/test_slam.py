@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from navstack.core.config_files import load_yaml, ros_parameters
 from navstack.core.errors import ConfigError
 from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.slam import LaserGeometry, SlamMapper
 from navstack.mapping.slam_params import SlamParams, unused_solver_keys
-from navstack.runtime.config import load_yaml, ros_parameters
 from navstack.sim.worlds import load_world
 
 ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)

@@ -12,8 +12,8 @@ from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from typer.testing import CliRunner
 
+from navstack.app import app
 from navstack.core.msgs import Imu, LaserScan, NavSatFix, Odometry, TFMessage
-from navstack.interfaces.cli import app
 from navstack.runtime.recording import (
     BagFormatError,
     BagPlayer,

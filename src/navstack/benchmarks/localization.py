@@ -180,8 +180,8 @@ def _amcl_sim(seed: int, spawn: tuple[float, float, float], params: dict[str, An
     sim = SimulatorNode(rt, Simulator(world, load_robot("diff_drive"), seed, Pose2D(*spawn)),
                         50.0, False)
     MapServer(rt, grid=world.to_occupancy_grid())
+    from navstack.core.config_files import load_yaml, ros_parameters
     from navstack.interfaces.stack import default_nav2_params_path
-    from navstack.runtime.config import load_yaml, ros_parameters
 
     packaged = ros_parameters(load_yaml(default_nav2_params_path()), "amcl")
     amcl = AmclNode(rt, AmclParams.from_mapping({**packaged, "random_seed": seed, **params},

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from navstack.app import app
 from navstack.core.msgs import PoseStamped
 from navstack.interfaces.api import Navigator
-from navstack.interfaces.cli import app
 from navstack.interfaces.health import (
     FAULTS,
     HEALTH_TOPICS,

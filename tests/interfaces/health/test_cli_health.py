@@ -8,7 +8,7 @@ from pathlib import Path
 import yaml
 from typer.testing import CliRunner
 
-from navstack.interfaces.cli import app
+from navstack.app import app
 from navstack.interfaces.stack import default_nav2_params_path
 
 runner = CliRunner()

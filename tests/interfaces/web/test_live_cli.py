@@ -11,7 +11,7 @@ import httpx
 import yaml
 from typer.testing import CliRunner
 
-from navstack.interfaces.cli import app
+from navstack.app import app
 from navstack.interfaces.demo import run_demo
 from navstack.interfaces.live_cli import LiveOptions, attach_to_demo, close_viewers, open_viewers
 from navstack.interfaces.live_runner import LiveRunner

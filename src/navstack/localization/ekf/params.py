@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, ValidationError
 
+from navstack.core.config_files import load_yaml, ros_parameters
 from navstack.core.errors import ConfigError, ConfigErrors, did_you_mean
 from navstack.core.params import Params, validation_to_config_error
 from navstack.localization.ekf.model import (
@@ -44,7 +45,6 @@ from navstack.localization.ekf.model import (
     DEFAULT_PROCESS_NOISE_DIAGONAL,
     STATE_SIZE,
 )
-from navstack.runtime.config import load_yaml, ros_parameters
 
 __all__ = [
     "CONFIG_MESSAGE", "DBL_MAX", "EkfParams", "SensorKind", "SensorParams", "UkfParams",

@@ -1,0 +1,60 @@
+"""``navstack bench``: the benchmark suites on the command line.
+
+Benchmarks drive the whole stack (they import ``interfaces``), so their command lives
+here, above the interfaces layer, and :mod:`navstack.app` adds it to the CLI.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from navstack.core.errors import NavstackError
+from navstack.interfaces.cli.common import app, fail, write_json
+
+
+@app.command()
+def bench(
+    suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
+    quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results here.")] = None,
+    data_dir: Annotated[Path | None, typer.Option(help="Shared data folder.")] = None,
+    controller: Annotated[str | None, typer.Option(
+        "--controller", help="FollowPath controller of the navigation suite: dwb "
+                             "(default), mppi or rpp.")] = None,
+) -> None:
+    """Run a benchmark suite; prints a table of metrics and writes JSON."""
+    from navstack.benchmarks.runner import available_suites, run_suite
+
+    if suite == "list":
+        for name in available_suites():
+            typer.echo(name)
+        return
+    try:
+        options = {"controller": controller} if controller is not None else {}
+        result = run_suite(suite, quick, data_dir, options)
+    except NavstackError as exc:
+        raise fail(str(exc)) from None
+    from rich.console import Console
+    from rich.table import Table
+
+    label = f" --controller {controller}" if controller is not None else ""
+    table = Table(title=f"navstack bench {suite}{label}{' (quick)' if quick else ''}")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, value in result.metrics.items():
+        table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+    if result.show_cases and result.cases:
+        rows = Table(title=f"{suite}: runs")
+        columns = list(result.cases[0])
+        for column in columns:
+            rows.add_column(column, justify="left" if column == "parameter" else "right")
+        for case in result.cases:
+            rows.add_row(*(f"{case.get(c, '')}" for c in columns))
+        Console(width=200).print(rows)
+    for note in result.notes:
+        typer.echo(f"note: {note}")
+    write_json(json_out, result.to_json())

@@ -1,0 +1,103 @@
+"""``navstack demo`` and ``run``: the flagship mission and the live stack."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from navstack.core.errors import NavstackError
+from navstack.interfaces.cli.common import app, fail
+
+
+@app.command()
+def demo(
+    out: Annotated[Path, typer.Option(help="Folder for report.json, report.md and "
+                                      "trajectory.png.")] = Path("runs/demo"),
+    seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 1,
+    world: Annotated[str | None, typer.Option(
+        help="World name or path (default: office; campus for --robot golf_cart).")] = None,
+    robot: Annotated[str, typer.Option(help="Robot profile (golf_cart: the campus route "
+                                       "with Hybrid-A* + MPPI).")] = "diff_drive",
+    waypoints: Annotated[Path | None, typer.Option(
+        help="Waypoints YAML (default: the office waypoints, order Goal_3, Goal_4, "
+             "Goal_2, Goal_1; the campus route for golf_cart).")] = None,
+    record: Annotated[bool, typer.Option(
+        "--record", help="Also record the run as a rosbag2 (MCAP) in OUT/bag (read it "
+                         "with `navstack report OUT/bag`).")] = False,
+    web: Annotated[bool, typer.Option("--web", help="Serve the web dashboard while the "
+                                      "mission runs (paced at --rate).")] = False,
+    port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
+    host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
+                                      "the same network).")] = "127.0.0.1",
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+                                              "generated and printed).")] = None,
+    foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
+                                           "127.0.0.1 while the mission runs.")] = False,
+    foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
+    rate: Annotated[float, typer.Option(help="Real-time factor with --web/--foxglove "
+                                        "(simulated seconds per wall second).")] = 1.0,
+) -> None:
+    """Flagship mission: visit named waypoints in order in the simulator, write a report."""
+    from navstack.interfaces.demo import run_demo
+    from navstack.interfaces.live_cli import LiveOptions, attach_to_demo
+
+    live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
+                       foxglove_port=foxglove_port, real_time_factor=rate)
+    try:
+        report = run_demo(out, seed, world, robot, waypoints, record=record,
+                          attach=attach_to_demo(live) if live.enabled else None)
+    except NavstackError as exc:
+        raise fail(str(exc)) from None
+    if "bag" in report:
+        typer.echo(f"recorded {report['bag']['messages']} messages to {report['bag']['path']}")
+    verdict = "SUCCESS" if report["success"] else "FAILURE"
+    typer.echo(f"{verdict}: {sum(g['status'] == 'SUCCEEDED' for g in report['goals'])}/"
+               f"{len(report['goals'])} goals, {report['collisions']} collisions, min clearance "
+               f"{report['min_clearance_m']:.2f} m, {report['sim_time_s']:.0f} s simulated in "
+               f"{report['wall_time_s']:.0f} s; report in {out}")
+    if not report["success"]:
+        raise typer.Exit(code=1)
+
+
+@app.command()
+def run(
+    world: Annotated[str, typer.Option(help="World name or path.")] = "office",
+    robot: Annotated[str, typer.Option(help="Robot profile.")] = "diff_drive",
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 1,
+    stack_file: Annotated[Path | None, typer.Option(
+        "--stack", help="Stack YAML (robot, world, navigation parameters) instead of "
+                        "--world/--robot.")] = None,
+    amcl: Annotated[bool, typer.Option("--amcl", help="Localize with AMCL.")] = False,
+    slam: Annotated[bool, typer.Option("--slam", help="Map with SLAM while "
+                                       "navigating.")] = False,
+    web: Annotated[bool, typer.Option("--web", help="Serve the web dashboard.")] = False,
+    port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
+    host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
+                                      "the same network).")] = "127.0.0.1",
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+                                              "generated and printed).")] = None,
+    foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
+                                           "127.0.0.1.")] = False,
+    foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
+    rate: Annotated[float, typer.Option(help="Real-time factor (simulated seconds per "
+                                        "wall second).")] = 1.0,
+    duration: Annotated[float | None, typer.Option(help="Stop after this many simulated "
+                                                   "seconds (default: until Ctrl-C).")] = None,
+) -> None:
+    """Run the stack live in the simulator and watch or command it (--web, --foxglove)."""
+    from navstack.interfaces.live_cli import LiveOptions, run_live
+    from navstack.interfaces.stack import NavStack
+
+    live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
+                       foxglove_port=foxglove_port, real_time_factor=rate)
+    if not live.enabled:
+        raise fail("nothing to watch: add --web and/or --foxglove")
+    try:
+        stack = (NavStack.from_stack_file(stack_file) if stack_file is not None
+                 else NavStack(world, robot, seed=seed, amcl=amcl, slam=slam))
+        reached = run_live(stack, live, duration)
+    except NavstackError as exc:
+        raise fail(str(exc)) from None
+    typer.echo(f"stopped at {reached:.1f} s simulated")

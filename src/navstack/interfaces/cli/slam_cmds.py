@@ -1,0 +1,61 @@
+"""``navstack slam``: offline SLAM on a CARMEN log."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from navstack.core.errors import NavstackError
+from navstack.interfaces.cli.common import app, fail, slam_overrides, write_json
+
+
+@app.command()
+def slam(
+    carmen: Annotated[Path, typer.Option(help="CARMEN log (plain text or .gz).")],
+    out: Annotated[Path, typer.Option(help="Folder for map.yaml/.pgm/.png, trajectory.csv, "
+                                      "map.posegraph, graph.g2o and summary.json.")],
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the summary here.")]
+    = None,
+    params: Annotated[Path | None, typer.Option(
+        help="slam_toolbox parameter YAML (slam_toolbox: ros__parameters: ...), applied "
+             "over the log profile.")] = None,
+    max_scans: Annotated[int | None, typer.Option(min=1, help="Stop after N scans.")] = None,
+) -> None:
+    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its error (RPE)."""
+    from navstack.mapping.offline import run_carmen, summary, write_outputs
+
+    try:
+        overrides = slam_overrides(params)
+        result = run_carmen(carmen, overrides, max_scans=max_scans,
+                            params_file=str(params) if params is not None else "")
+        files = write_outputs(result, out)
+    except (NavstackError, OSError) as exc:
+        raise fail(str(exc)) from None
+    report = summary(result, files)
+    skipped = report["skipped_lines"]
+    if skipped["count"]:
+        shown = "; ".join(f"line {s['line']}: {s['reason']}" for s in skipped["first"])
+        more = ", ..." if skipped["count"] > len(skipped["first"]) else ""
+        typer.echo(f"warning: {skipped['count']} log line(s) skipped ({shown}{more})", err=True)
+    stats = result.mapper.stats
+    typer.echo(f"{result.scans} scans processed ({len(result.mapper.nodes)} nodes), "
+               f"{stats.loop_closures} loop closures, {stats.match_failures} match failures")
+    if result.rpe is not None:
+        r = result.rpe
+        line = (f"RPE over {r.pairs} consecutive pairs vs the corrected poses: trans "
+                f"{r.trans_mean_m:.4f} ± {r.trans_std_m:.4f} m, rot {r.rot_mean_deg:.3f} ± "
+                f"{r.rot_std_deg:.3f} deg")
+        if result.odometry_rpe is not None:
+            o = result.odometry_rpe
+            line += f" (odometry alone: {o.trans_mean_m:.4f} m, {o.rot_mean_deg:.3f} deg)"
+        typer.echo(line)
+    else:
+        typer.echo("RPE: not scored (the log has no corrected reference poses)")
+    speed = (f"speedup {result.speedup:.0f}x over the log's {result.log_duration_s:.0f} s"
+             if result.speedup is not None and result.log_duration_s is not None
+             else "speedup unknown (log timestamps too coarse)")
+    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median), {result.wall_s:.2f} s wall, {speed}")
+    typer.echo(f"wrote {', '.join(Path(p).name for p in files.values())} to {out}")
+    write_json(json_out, report)
