@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 
+from navstack.benchmarks.dwb import DWB_CYCLE_BUDGET_MS, benchmark_scene, measure_dwb_cycle_ms
 from navstack.control.dwb import (
     DWBLocalPlanner,
     DWBParams,
     InvalidPlan,
     NoLegalTrajectories,
 )
-from navstack.control.dwb.bench import DWB_CYCLE_BUDGET_MS, benchmark_scene, measure_dwb_cycle_ms
 from navstack.control.dwb.critics import ObstacleFootprintCritic, PathAlignCritic
 from navstack.core.errors import ConfigError, NoValidControl
 from navstack.core.msgs import Path, Pose2D, Twist2D

@@ -16,6 +16,7 @@ SUITE_MODULES: dict[str, str] = {
     "sim": "navstack.benchmarks.sim",
     "planners": "navstack.benchmarks.planners",
     "costmap": "navstack.benchmarks.costmap",
+    "dwb": "navstack.benchmarks.dwb",
     "navigation": "navstack.benchmarks.navigation",
     "slam": "navstack.benchmarks.slam",
     "slam-params": "navstack.benchmarks.slam_params",

@@ -5,17 +5,19 @@ with three boxes inflated by Nav2's exponential inflation (``cost_scaling_factor
 inflation radius 0.55 m, inscribed radius 0.18 m), a curved plan threading between them,
 and the robot already moving (0.2 m/s, 0.1 rad/s) so the dynamic window is the usual
 in-motion one.  Default sampling: 20 vx x 20 vtheta samples, ``sim_time`` 1.7 s,
-0.05 m / 0.025 rad granularity.  Budget: 5 ms median.
+0.05 m / 0.025 rad granularity.  Budget: 5 ms median (``navstack bench dwb``, metric
+``dwb_cycle_ms``).
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path as FsPath
 
 import numpy as np
 from scipy import ndimage
 
-from navstack.benchmarks.common import median_ms
+from navstack.benchmarks.common import BenchResult, median_ms
 from navstack.control.dwb.dwb_controller import DWBLocalPlanner
 from navstack.core.msgs import Path, Pose2D, Twist2D
 from navstack.costmap.costmap_2d import (
@@ -63,5 +65,13 @@ def measure_dwb_cycle_ms(repeats: int = 200) -> float:
     return median_ms(cycle, repeats, warmup=5)
 
 
-if __name__ == "__main__":
-    print(f"dwb_cycle_ms {measure_dwb_cycle_ms(200):.3f} (budget {DWB_CYCLE_BUDGET_MS} ms)")
+def run(quick: bool, data_dir: FsPath | None = None) -> BenchResult:
+    """The ``dwb`` suite: ``dwb_cycle_ms`` (``data_dir`` is unused: the scene is synthetic)."""
+    repeats = 30 if quick else 200
+    ms = measure_dwb_cycle_ms(repeats)
+    result = BenchResult("dwb")
+    result.metrics["dwb_cycle_ms"] = ms
+    result.cases.append({"case": "dwb_cycle", "median_ms": ms, "repeats": repeats,
+                         "budget_ms": DWB_CYCLE_BUDGET_MS, "cells": 200 * 200,
+                         "samples": 20 * 20, "within_budget": ms <= DWB_CYCLE_BUDGET_MS})
+    return result
