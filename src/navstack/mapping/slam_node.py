@@ -1,7 +1,9 @@
 """``SlamNode``: online SLAM in the runtime, the job of slam_toolbox's sync/async nodes.
 
 * subscribes ``scan_topic``; the odometry pose at each scan's stamp comes from TF
-  (``odom_frame -> base_frame``), the laser mount from ``base_frame -> scan frame``;
+  (``odom_frame -> base_frame``), the laser mount from ``base_frame -> scan frame``; a
+  scan waits up to ``transform_timeout`` for them in a
+  :class:`~navstack.runtime.tf_filter.TfMessageFilter` of ``scan_queue_size``;
 * publishes ``map_frame -> odom_frame`` every ``transform_publish_period`` (stamped
   ``transform_timeout`` ahead, as slam_toolbox does, so lookups at the newest odometry time
   never wait for it) and the occupancy grid on ``/map`` (latched) every
@@ -27,7 +29,6 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.errors import TransformError
 from navstack.core.msgs import (
     Header,
     LaserScan,
@@ -42,6 +43,7 @@ from navstack.mapping.slam_io import load_posegraph, save_posegraph
 from navstack.mapping.slam_params import SlamParams
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
+from navstack.runtime.tf_filter import TfMessageFilter
 
 __all__ = ["SlamNode", "pad_to_extent"]
 
@@ -79,14 +81,16 @@ class SlamNode(Node):
         self.params = params or SlamParams()
         self.mapper: SlamMapper | None = None
         self.scans_dropped = 0
-        self.tf_failures = 0
         self.last_problem = ""
         self.maps_published = 0
         self._pending: tuple[np.ndarray, np.ndarray, float] | None = None
         self._worker: threading.Thread | None = None
         self._lock = threading.Lock()
         self._loaded: SlamMapper | None = None
-        self._waiting: list[LaserScan] = []
+        self._scans: TfMessageFilter[LaserScan, tuple[Pose2DMsg, Pose2DMsg]] = TfMessageFilter(
+            self, self._scan_transforms, self._on_scan_placed,
+            queue_size=self.params.scan_queue_size, timeout=self.params.transform_timeout,
+            what="scan", on_drop=self._on_scan_dropped)
 
     # --- lifecycle -----------------------------------------------------------------------
     def on_configure(self) -> None:
@@ -110,33 +114,31 @@ class SlamNode(Node):
         prefix = f"/{self.name}"
         for service in ("save_map", "serialize_map", "deserialize_pose_graph"):
             self.bus.remove_service(f"{prefix}/{service}")
+        self._scans.clear()
 
     # --- scans ---------------------------------------------------------------------------
+    @property
+    def tf_failures(self) -> int:
+        """Scans dropped because TF had no odometry at their stamp within
+        ``transform_timeout``."""
+        return self._scans.dropped_timeout
+
     def _on_scan(self, scan: LaserScan) -> None:
         """Queue the scan until TF has odometry at its stamp (a tf2 message filter): the
         odometry of the same instant may arrive just after the scan."""
-        self._waiting.append(scan)
-        del self._waiting[:-self.params.scan_queue_size]
-        self._drain()
+        self._scans.add(scan)
 
-    def _drain(self) -> None:
+    def _scan_transforms(self, scan: LaserScan) -> tuple[Pose2DMsg, Pose2DMsg]:
         p = self.params
-        while self._waiting:
-            scan = self._waiting[0]
-            stamp = scan.header.stamp
-            try:
-                odom = self.tf.lookup_pose2d(p.odom_frame, p.base_frame, stamp)
-                mount = self.tf.lookup_pose2d(p.base_frame,
-                                              scan.header.frame_id or p.base_frame)
-            except TransformError as exc:
-                if self.now - stamp <= p.transform_timeout:
-                    return  # odometry for this stamp may still come
-                self._waiting.pop(0)
-                self.tf_failures += 1
-                self.last_problem = f"scan at t={stamp:.3f} dropped: {exc}"
-                continue
-            self._waiting.pop(0)
-            self._process(scan, odom, mount)
+        odom = self.tf.lookup_pose2d(p.odom_frame, p.base_frame, scan.header.stamp)
+        mount = self.tf.lookup_pose2d(p.base_frame, scan.header.frame_id or p.base_frame)
+        return odom, mount
+
+    def _on_scan_placed(self, scan: LaserScan, transforms: tuple[Pose2DMsg, Pose2DMsg]) -> None:
+        self._process(scan, *transforms)
+
+    def _on_scan_dropped(self, scan: LaserScan, reason: str) -> None:
+        self.last_problem = reason
 
     def _process(self, scan: LaserScan, odom: Pose2DMsg, mount: Pose2DMsg) -> None:
         p = self.params
@@ -175,7 +177,7 @@ class SlamNode(Node):
         return np.zeros(3) if self.mapper is None else self.mapper.map_to_odom
 
     def _publish_transform(self) -> None:
-        self._drain()
+        self._scans.drain()
         p = self.params
         m2o = self.map_to_odom
         transform = Transform.from_pose2d(Pose2DMsg(float(m2o[0]), float(m2o[1]),

@@ -3,7 +3,8 @@
 * subscribes ``map_topic`` (latched ``OccupancyGrid``; with ``first_map_only`` later maps
   are ignored), ``scan_topic`` (``LaserScan``; the laser mount comes from TF
   ``base_frame_id -> scan frame``, the odometry at the scan's stamp from TF
-  ``odom_frame_id -> base_frame_id``; a scan waits until that odometry is in the buffer,
+  ``odom_frame_id -> base_frame_id``; a scan waits up to ``transform_tolerance`` until
+  that odometry is in the buffer, in a :class:`~navstack.runtime.tf_filter.TfMessageFilter`
   as behind Nav2's tf2 message filter) and ``/initialpose``
   (``PoseWithCovarianceStamped`` in ``global_frame_id``);
 * updates the filter on the first scan after (re)initialisation and whenever odometry
@@ -51,7 +52,8 @@ from navstack.localization.amcl.params import AmclParams
 from navstack.localization.amcl.particle_filter import AmclFilter, InvalidInitialPose
 from navstack.localization.amcl.sensor_model import AmclMapError, prepare_scan
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
-from navstack.runtime.node import LifecycleState, Node, Runtime
+from navstack.runtime.node import Node, Runtime
+from navstack.runtime.tf_filter import TfMessageFilter
 
 __all__ = ["DEFAULT_INITIAL_COVARIANCE", "AmclNode"]
 
@@ -60,7 +62,7 @@ DEFAULT_INITIAL_COVARIANCE = np.diag([0.5 ** 2, 0.5 ** 2, (math.pi / 12.0) ** 2]
 parameter, Python calls): ROS 1 amcl's ``initial_cov_xx/yy/aa`` defaults."""
 
 SCAN_QUEUE = 5
-"""Scans held while waiting for odometry at their stamp."""
+"""Scans held while waiting for odometry at their stamp (the tf2 filter's queue)."""
 UPDATE_HISTORY = 10000
 """Per-update wall times kept in ``update_ms``."""
 
@@ -95,7 +97,7 @@ class AmclNode(Node):
         self.initial_pose_known = False
         self.saved_pose: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self.maps_received = self.maps_rejected = self.maps_ignored = 0
-        self.scans_received = self.scans_out_of_order = self.tf_failures = 0
+        self.scans_received = self.scans_out_of_order = 0
         self.scans_without_map = self.scans_without_pose = self.invalid_beams = 0
         self.rejected_initial_poses = 0
         self.last_rejection = ""
@@ -103,9 +105,10 @@ class AmclNode(Node):
         self._reset_tracking()
         self._map_to_odom: Pose2D | None = None
         self._sent_first_transform = False
-        self._waiting: list[LaserScan] = []
+        self._scans: TfMessageFilter[LaserScan, tuple[str, Pose2D, Pose2D]] = TfMessageFilter(
+            self, self._scan_transforms, self._on_scan_placed, queue_size=SCAN_QUEUE,
+            timeout=self.params.transform_tolerance, what="scan", on_drop=self._on_scan_dropped)
         self._last_scan_stamp = -math.inf
-        self._retry_pending = False
         self._mounts: dict[str, Pose2D] = {}
         self._last_save_t = -math.inf
 
@@ -145,7 +148,7 @@ class AmclNode(Node):
             self.bus.remove_service(service)
         self.filter = AmclFilter(self.params, self.rng)
         self.initial_pose_known = False
-        self._waiting.clear()
+        self._scans.clear()
         self._mounts.clear()
         self._reset_tracking()
         self._map_to_odom = None
@@ -259,48 +262,41 @@ class AmclNode(Node):
         self.maps_received += 1
 
     # --- scans -----------------------------------------------------------------------------
+    @property
+    def tf_failures(self) -> int:
+        """Scans dropped because TF had no odometry (or mount) at their stamp within
+        ``transform_tolerance``."""
+        return self._scans.dropped_timeout
+
     def _on_scan(self, scan: LaserScan) -> None:
         self.scans_received += 1
         stamp = scan.header.stamp
-        newest = self._waiting[-1].header.stamp if self._waiting else self._last_scan_stamp
+        waiting = self._scans.pending
+        newest = waiting[-1].header.stamp if waiting else self._last_scan_stamp
         if not stamp > newest:
             self.scans_out_of_order += 1
             self.last_problem = (f"scan at t={stamp:.3f} dropped: not newer than the previous "
                                  f"scan (t={newest:.3f}); scans must arrive in stamp order")
             return
-        self._waiting.append(scan)
-        del self._waiting[:-SCAN_QUEUE]
-        self._drain()
+        self._scans.add(scan)
 
-    def _retry(self) -> None:
-        self._retry_pending = False
-        if self.state is LifecycleState.ACTIVE:
-            self._drain()
-
-    def _drain(self) -> None:
-        """Process queued scans whose odometry is in the TF buffer (tf2 message filter)."""
+    def _scan_transforms(self, scan: LaserScan) -> tuple[str, Pose2D, Pose2D]:
+        """The scan's frame, the odometry pose at its stamp and the laser mount (cached:
+        mounts are static); raises :class:`TransformError` while TF lacks them."""
         p = self.params
-        while self._waiting:
-            scan = self._waiting[0]
-            stamp = scan.header.stamp
-            frame = scan.header.frame_id or p.base_frame_id
-            try:
-                odom = self.tf.lookup_pose2d(p.odom_frame_id, p.base_frame_id, stamp)
-                mount = self._mounts.get(frame) or self.tf.lookup_pose2d(p.base_frame_id, frame)
-            except TransformError as exc:
-                if self.now - stamp <= p.transform_tolerance:
-                    if not self._retry_pending:  # odometry of this instant may still come
-                        self._retry_pending = True
-                        self.runtime.scheduler.call_later(0.02, self._retry)
-                    return
-                self._waiting.pop(0)
-                self.tf_failures += 1
-                self.last_problem = f"scan at t={stamp:.3f} dropped: {exc}"
-                continue
-            self._waiting.pop(0)
-            self._mounts[frame] = mount
-            self._last_scan_stamp = stamp
-            self._process(scan, frame, odom, mount)
+        frame = scan.header.frame_id or p.base_frame_id
+        odom = self.tf.lookup_pose2d(p.odom_frame_id, p.base_frame_id, scan.header.stamp)
+        mount = self._mounts.get(frame) or self.tf.lookup_pose2d(p.base_frame_id, frame)
+        return frame, odom, mount
+
+    def _on_scan_placed(self, scan: LaserScan, transforms: tuple[str, Pose2D, Pose2D]) -> None:
+        frame, odom, mount = transforms
+        self._mounts[frame] = mount
+        self._last_scan_stamp = scan.header.stamp
+        self._process(scan, frame, odom, mount)
+
+    def _on_scan_dropped(self, scan: LaserScan, reason: str) -> None:
+        self.last_problem = reason
 
     def _process(self, scan: LaserScan, frame: str, odom: Pose2D, mount: Pose2D) -> None:
         """Nav2 ``laserReceived`` once the transforms are known."""
