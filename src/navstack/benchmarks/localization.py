@@ -166,9 +166,9 @@ def _amcl_sim(seed: int, spawn: tuple[float, float, float], params: dict[str, An
               ) -> tuple[Any, Any, Any]:
     """Runtime + simulator + map server + AMCL (no navigation), robot at ``spawn``."""
     from navstack.core.msgs import Pose2D
-    from navstack.localization.amcl.node import AmclNode
     from navstack.localization.amcl.params import AmclParams
     from navstack.navigation.map_server import MapServer
+    from navstack.nodes.amcl import AmclNode
     from navstack.runtime.node import Runtime
     from navstack.sim.node import SimulatorNode
     from navstack.sim.robot import load_robot

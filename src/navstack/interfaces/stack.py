@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
-from navstack.mapping.slam_node import SlamNode
 from navstack.mapping.slam_params import SlamParams
 from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
 from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
@@ -30,6 +29,7 @@ from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
 from navstack.navigation.trees import NavigateTreeParams
 from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
+from navstack.nodes.slam import SlamNode
 from navstack.runtime.config import load_stack, load_yaml, ros_parameters
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
@@ -39,7 +39,7 @@ from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
 if TYPE_CHECKING:
-    from navstack.localization.amcl.node import AmclNode
+    from navstack.nodes.amcl import AmclNode
 
 
 def default_nav2_params_path() -> Path:
@@ -86,8 +86,8 @@ class NavStack:
         self.map_server: MapServer | None = None
         self.amcl: AmclNode | None = None
         if slam is False and amcl is not False:
-            from navstack.localization.amcl.node import AmclNode
             from navstack.localization.amcl.params import AmclParams
+            from navstack.nodes.amcl import AmclNode
 
             self.sim = SimulatorNode(rt, simulator, physics_rate_hz, False)
             self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())

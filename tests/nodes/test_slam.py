@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from navstack.core.msgs import OccupancyGrid, Twist
-from navstack.mapping.slam_node import SlamNode, pad_to_extent
 from navstack.mapping.slam_params import SlamParams
+from navstack.nodes.slam import SlamNode, pad_to_extent
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.open_loop import build_sim

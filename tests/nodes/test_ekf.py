@@ -25,8 +25,9 @@ from navstack.core.msgs import (
     TwistWithCovariance,
     Vector3,
 )
-from navstack.localization.ekf import EkfNode, EkfParams, MeasurementBuilder
+from navstack.localization.ekf import EkfParams, MeasurementBuilder
 from navstack.localization.ekf.model import AX, AY, AZ, VX, VY, VYAW, YAW
+from navstack.nodes.ekf import EkfNode
 from navstack.runtime.node import Runtime
 
 F, T = False, True

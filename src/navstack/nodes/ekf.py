@@ -50,52 +50,24 @@ from navstack.core.msgs import (
     Vector3,
 )
 from navstack.core.tf import Tf, tf_from_msg, tf_inverse, tf_mul, tf_to_stamped
+from navstack.localization.ekf.diagnostics import configuration_diagnostics
 from navstack.localization.ekf.ekf import Ekf, FilterBase
 from navstack.localization.ekf.measurements import (
     MeasurementBuilder,
     MeasurementRejected,
     SensorActivity,
 )
-from navstack.localization.ekf.model import STATE_NAMES, STATE_SIZE, VROLL
+from navstack.localization.ekf.model import STATE_SIZE, VROLL
 from navstack.localization.ekf.params import EkfParams, SensorParams, UkfParams
 from navstack.localization.ekf.ukf import Ukf
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Node, Runtime
 
-__all__ = ["EkfNode", "configuration_diagnostics"]
+__all__ = ["EkfNode"]
 
 _MSG_TYPES: dict[str, type[Any]] = {"odom": Odometry, "imu": Imu,
                                     "pose": PoseWithCovarianceStamped,
                                     "twist": TwistWithCovarianceStamped}
-
-
-def configuration_diagnostics(params: EkfParams) -> list[str]:
-    """robot_localization's start-up configuration warnings: several absolute sources of
-    one pose variable (oscillation risk), or neither it nor its rate measured (unbounded
-    error growth)."""
-    absolute: Counter[int] = Counter()
-    rates: Counter[int] = Counter()
-    for s in params.sensors:
-        u = s.config
-        for i in range(6):
-            if s.kind == "imu" and i < 3:  # sensor_msgs/Imu carries no position
-                continue
-            if s.kind in ("odom", "pose", "imu") and u[i] and not s.use_differential:
-                absolute[i] += 1
-            if (u[i] and s.use_differential) or (s.kind != "pose" and u[6 + i]):
-                rates[i] += 1
-    out = []
-    for i in range(6):
-        if params.two_d_mode and i in (2, 3, 4):
-            continue
-        if absolute[i] > 1:
-            out.append(f"{absolute[i]} absolute pose inputs detected for {STATE_NAMES[i]}; "
-                       "this may result in oscillations: make sure their variances are set "
-                       "appropriately")
-        elif absolute[i] == 0 and rates[i] == 0:
-            out.append(f"neither {STATE_NAMES[i]} nor its velocity is measured: its error "
-                       "will grow without bound")
-    return out
 
 
 class EkfNode(Node):

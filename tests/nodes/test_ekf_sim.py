@@ -23,7 +23,8 @@ import pytest
 from scipy.stats import chi2
 
 from navstack.core.msgs import Odometry, Twist
-from navstack.localization.ekf import EkfNode, EkfParams
+from navstack.localization.ekf import EkfParams
+from navstack.nodes.ekf import EkfNode
 from navstack.sim.open_loop import build_sim
 
 F, T = False, True

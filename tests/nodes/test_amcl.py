@@ -20,7 +20,8 @@ from navstack.core.msgs import (
     TFMessage,
     Twist,
 )
-from navstack.localization.amcl import AmclNode, AmclParams
+from navstack.localization.amcl import AmclParams
+from navstack.nodes.amcl import AmclNode
 from navstack.runtime.bus import LATCHED
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode

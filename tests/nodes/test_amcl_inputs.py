@@ -22,7 +22,8 @@ from navstack.core.msgs import (
     Transform,
     TransformStamped,
 )
-from navstack.localization.amcl import AmclMapError, AmclNode, AmclParams
+from navstack.localization.amcl import AmclMapError, AmclParams
+from navstack.nodes.amcl import AmclNode
 from navstack.runtime.bus import LATCHED, QoS
 from navstack.runtime.node import Runtime
 from navstack.sim.world import World
