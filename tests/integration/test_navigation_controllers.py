@@ -50,7 +50,7 @@ def test_controller_files_build_the_named_plugin(name: str, cls_name: str) -> No
         # the rest of the packaged controller_server section is kept
         assert server["general_goal_checker"]["xy_goal_tolerance"] == 0.25
         assert server["controller_frequency"] == 20.0
-    stack = NavStack("office", seed=0, nav2_params=params)
+    stack = NavStack("office", seed=0, nav2_params=params).start()
     assert type(stack.controller.controllers["FollowPath"]).__name__ == cls_name
 
 

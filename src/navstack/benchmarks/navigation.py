@@ -235,7 +235,7 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
         world = _with_box(world, sc.block)  # in the simulator only, not on the map
     wall0 = time.perf_counter()
     stack = NavStack(world, seed=seed, spawn=sc.start, map_grid=map_grid,
-                     nav2_params=nav2_params_for(controller))
+                     nav2_params=nav2_params_for(controller)).start()
     outcome = Outcome(sc)
     ctrl = next(iter(stack.controller.controllers.values()))
     compute = ctrl.compute

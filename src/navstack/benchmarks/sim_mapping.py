@@ -53,10 +53,12 @@ def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "offi
     from navstack.interfaces.api import Navigator, TaskResult
     from navstack.interfaces.demo import default_waypoints_path
     from navstack.interfaces.stack import NavStack
+    from navstack.interfaces.stack_description import SlamLocalization
     from navstack.navigation.waypoint_follower import load_waypoints
 
     nav2 = _nav2_with(costmap_overrides or {})
-    stack = NavStack(world, robot, nav2, seed=seed, slam=dict(slam or {}) or True)
+    stack = NavStack(world, robot, nav2, seed=seed,
+                     localization=SlamLocalization(dict(slam or {}))).start()
     assert stack.slam is not None
     slam_node = stack.slam
     nav = Navigator(stack)

@@ -117,7 +117,7 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     world = world or setup.world
     waypoints = load_waypoints(waypoints_file or setup.waypoints)
     wall0 = time.perf_counter()
-    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed)
+    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder

@@ -137,7 +137,7 @@ class LiveRunner:
         both keyword settings."""
         self.params = params or LiveRunnerParams.from_mapping(
             {"real_time_factor": real_time_factor, "step": step}, key_path="live_runner")
-        self.stack = stack
+        self.stack = stack.start()  # idempotent: a stack built but not started runs here
         self.estop = EStopGate(stack.runtime)
         self.now = stack.now
         self.steps = 0

@@ -89,14 +89,18 @@ def run(
     """Run the stack live in the simulator and watch or command it (--web, --foxglove)."""
     from navstack.interfaces.live_cli import LiveOptions, run_live
     from navstack.interfaces.stack import NavStack
+    from navstack.interfaces.stack_description import LocalizationName
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
                        foxglove_port=foxglove_port, real_time_factor=rate)
     if not live.enabled:
         raise fail("nothing to watch: add --web and/or --foxglove")
+    if amcl and slam:
+        raise fail("--amcl and --slam exclude each other: SLAM localizes on its own map")
+    localization: LocalizationName = "slam" if slam else "amcl" if amcl else "perfect"
     try:
         stack = (NavStack.from_stack_file(stack_file) if stack_file is not None
-                 else NavStack(world, robot, seed=seed, amcl=amcl, slam=slam))
+                 else NavStack(world, robot, seed=seed, localization=localization))
         reached = run_live(stack, live, duration)
     except NavstackError as exc:
         raise fail(str(exc)) from None

@@ -52,11 +52,12 @@ _LIMIT_KEYS = ("max_vel_x", "max_speed_xy", "max_vel_theta", "desired_linear_vel
 
 
 class HealthMonitor:
-    """Watches ``stack`` from construction on; :meth:`report` evaluates the checks."""
+    """Watches ``stack`` from construction on (starting it if it was not yet);
+    :meth:`report` evaluates the checks."""
 
     def __init__(self, stack: NavStack, params: HealthParams | None = None,
                  history: float = 30.0) -> None:
-        self.stack = stack
+        self.stack = stack.start()
         self.params = params or HealthParams()
         self.history = max(history, self.params.window,
                            self.params.movement_time_allowance + self.params.window)

@@ -98,7 +98,7 @@ class HealthSession:
     def __init__(self, stack: NavStack, params: HealthParams | None = None,
                  fault: str = "healthy", goal: Pose2D | None = None,
                  record: str | Path | None = None, free_travel: float = 0.3) -> None:
-        self.stack = stack
+        self.stack = stack.start()
         self.params = params or HealthParams()
         self.monitor = HealthMonitor(stack, self.params)
         self.recorder = (BagRecorder(stack.runtime, record, HEALTH_TOPICS)
