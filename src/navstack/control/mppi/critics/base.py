@@ -146,8 +146,10 @@ CRITICS = CriticRegistry("mppi critic", Critic)
 """MPPI critics by name (``GoalCritic``), ``mppi::critics::GoalCritic`` accepted too."""
 
 
-def register_critic(name: str, aliases: Iterable[str] = ()
+def register_critic(name: str, namespace: str = "mppi::critics", aliases: Iterable[str] = ()
                     ) -> Callable[[type[Critic]], type[Critic]]:
-    """Class decorator: register an MPPI critic as ``name`` and ``mppi::critics::<name>``
-    (both spellings); the class's ``params_model`` validates its ``<name>:`` section."""
-    return CRITICS.plugin(name, nav2=f"mppi::critics::{name}", aliases=aliases)
+    """Class decorator: register an MPPI critic as ``name`` and ``<namespace>::<name>``
+    (Nav2's ``mppi::critics::GoalCritic``; a critic of your own package gives its
+    ``namespace``).  ``critics`` may list either; the section is ``<name>:`` and the
+    class's ``params_model`` validates it."""
+    return CRITICS.plugin(name, nav2=f"{namespace}::{name}", aliases=aliases)
