@@ -8,7 +8,8 @@ own plugins (``plugin: "my_pkg/ViaPointPlanner"``, ``class: "my_pkg::SpeedCapCri
 ``critics: [..., "my_pkg::SpeedCapCritic"]``) over the packaged ``nav2_params.yaml``.
 
 The plugins are registered inside a fixture wrapped in ``scoped(...)`` so the rest of the
-test session sees the built-in registries only.
+test session sees the built-in registries only.  ``docs/extending.md`` shows the same four
+plugins; the last test executes its code blocks.
 """
 
 from __future__ import annotations
@@ -108,7 +109,7 @@ controller_server:
 """
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def my_pkg() -> Iterator[SimpleNamespace]:
     """The user's package: four plugins, one decorator each."""
     with scoped(PLANNERS, COSTMAP_LAYERS, DWB_CRITICS, MPPI_CRITICS):
@@ -316,3 +317,45 @@ def test_mppi_critic_from_nav2_yaml(my_pkg: SimpleNamespace, tmp_path: Path) -> 
     # every command under its cap
     assert vx.max() <= 0.2
     assert np.hypot(*(xy - VIA).T).min() < 0.3  # the custom planner's path, again
+
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "extending.md"
+
+
+def test_extending_doc_examples_register_and_load() -> None:
+    """Every Python block of docs/extending.md runs, is under 40 lines, and registers the
+    plugin its YAML blocks name; the planner and the layer also work on a costmap."""
+    import re
+
+    from navstack.costmap.layered_costmap import LayeredCostmap
+
+    text = DOC.read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 4
+    with scoped(PLANNERS, COSTMAP_LAYERS, DWB_CRITICS, MPPI_CRITICS):
+        spaces = []
+        for code in blocks:
+            assert len(code.splitlines()) < 40
+            ns: dict[str, Any] = {"__name__": "my_pkg.plugins"}
+            exec(compile(code, str(DOC), "exec"), ns)
+            spaces.append(ns)
+        planner_cls = PLANNERS.get("my_pkg::ViaPointPlanner")
+        assert planner_cls is spaces[0]["ViaPointPlanner"]
+        assert COSTMAP_LAYERS.get("my_pkg/KeepOffLayer") is spaces[1]["KeepOffLayer"]
+        assert DWB_CRITICS.get("my_pkg::SpeedCapCritic") is spaces[2]["SpeedCapCritic"]
+        assert MPPI_CRITICS.get("my_pkg::SpeedCapCritic") is spaces[3]["SpeedCapCritic"]
+        for plugin in re.findall(r'(?:plugin|class): "(my_pkg(?:/|::)[^"]+)"', text):
+            assert any(plugin in reg for reg in (PLANNERS, COSTMAP_LAYERS, DWB_CRITICS)), plugin
+
+        costmap = LayeredCostmap.from_nav2({
+            "width": 6.0, "height": 3.0, "resolution": 0.05, "plugins": ["keep_off"],
+            "keep_off": {"plugin": "my_pkg/KeepOffLayer", "zone": [2.0, 0.0, 3.0, 2.2]}})
+        costmap.update_map(0.5, 0.5, 0.0)
+        cm = costmap.costmap
+        assert cm.cost_at_world(2.5, 1.0) == LETHAL_OBSTACLE
+        assert cm.cost_at_world(2.5, 2.5) == 0 and cm.cost_at_world(1.5, 1.0) == 0
+        planner = planner_cls(planner_cls.params_model.from_mapping(
+            {"via_points": [[4.0, 0.5]]}))
+        path = planner.plan(Pose2D(0.5, 0.5, 0.0), Pose2D(5.5, 1.5, 0.0), cm).as_array()
+        assert np.hypot(path[:, 0] - 4.0, path[:, 1] - 0.5).min() < 0.05
+        assert path[:, 1][(path[:, 0] > 2.0) & (path[:, 0] < 3.0)].min() > 2.2  # round the zone
