@@ -89,3 +89,33 @@ def test_cli_help_imports_no_plugin() -> None:
                             "try:\n    main()\nexcept SystemExit:\n    pass")
     assert "navstack.app" in loaded
     assert not loaded & PLUGIN_MODULES, sorted(loaded & PLUGIN_MODULES)
+
+
+def test_server_plugin_errors_name_the_file_and_key() -> None:
+    from navstack.core.errors import ConfigError
+    from navstack.navigation.plugins import load_plugin
+
+    with pytest.raises(ConfigError) as err:
+        load_plugin(PLANNERS, "nav2_navfn_planner/NavfnPlaner", file="nav2.yaml",
+                    key_path="planner_server.GridBased")
+    assert str(err.value) == ("nav2.yaml: planner_server.GridBased.plugin: unknown planner "
+                              "plugin 'nav2_navfn_planner/NavfnPlaner' (did you mean "
+                              "'nav2_navfn_planner/NavfnPlanner'?)")
+    with pytest.raises(ConfigError) as err:
+        load_plugin(CONTROLLERS, "teb_local_planner::TebLocalPlannerROS", file="nav2.yaml",
+                    key_path="controller_server.FollowPath")
+    assert str(err.value) == (
+        "nav2.yaml: controller_server.FollowPath.plugin: unknown controller plugin "
+        "'teb_local_planner::TebLocalPlannerROS' (known: dwb_core::DWBLocalPlanner, "
+        "nav2_mppi_controller::MPPIController, nav2_regulated_pure_pursuit_controller::"
+        "RegulatedPurePursuitController; a plugin of your own: import its module first or "
+        "write 'package.module:ClassName')")
+    with pytest.raises(ConfigError) as err:
+        load_plugin(PLANNERS, "navstack.core.msgs:Path", file="nav2.yaml",
+                    key_path="planner_server.GridBased")
+    assert str(err.value) == ("nav2.yaml: planner_server.GridBased.plugin: planner plugin "
+                              "'navstack.core.msgs:Path' is not a GlobalPlanner: subclass "
+                              "navstack.core.interfaces.GlobalPlanner")
+    # an undecorated planner by module path works (NavfnPlanner is also registered)
+    assert load_plugin(PLANNERS, "navstack.planning.navfn:NavfnPlanner").__name__ == (
+        "NavfnPlanner")

@@ -190,9 +190,10 @@ def test_class_registry_checks_the_interface_and_resolves_module_paths() -> None
         reg.get("tests.core.test_registry:Nope")
     assert str(err.value) == ("planner plugin 'tests.core.test_registry:Nope': module "
                               "tests.core.test_registry has no attribute 'Nope'")
-    with pytest.raises(UnknownNameError) as err:
+    with pytest.raises(PluginError) as err:
         reg.get("no_such_pkg_x.mod:Cls")
-    assert str(err.value).startswith("unknown planner plugin 'no_such_pkg_x.mod:Cls'")
+    assert str(err.value) == ("planner plugin 'no_such_pkg_x.mod:Cls': no module named "
+                              "'no_such_pkg_x.mod'; is its package installed or on sys.path?")
 
 
 def test_decorated_class_by_module_path_keeps_its_name() -> None:

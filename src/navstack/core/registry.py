@@ -230,7 +230,9 @@ class ClassRegistry(PluginRegistry[type[P]]):
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as exc:
             if exc.name is not None and module_name.startswith(exc.name):
-                raise UnknownNameError(f"{self.kind} plugin", name, self.names()) from None
+                raise PluginError(f"{self.kind} plugin '{name}': no module named "
+                                  f"'{module_name}'; is its package installed or on "
+                                  f"sys.path?") from None
             raise PluginError(f"importing {module_name} for {self.kind} plugin '{name}' "
                               f"failed: {exc}") from exc
         obj = getattr(module, attr, None)

@@ -60,10 +60,11 @@ def load_plugin(registry: ClassRegistry[P], plugin: str, *, file: str = "",
         return registry.get(plugin)
     except UnknownNameError:
         hint = did_you_mean(plugin, registry.all_names()).strip(" ()")
+        nav2_types = [n for n in registry.all_names() if "::" in n]
         raise ConfigError(f"unknown {registry.kind} plugin '{plugin}'", file=file,
                           key_path=where,
-                          suggestion=hint or f"known: {', '.join(registry.names())}; a plugin "
-                          f"of your own: import its module first or write "
+                          suggestion=hint or f"known: {', '.join(nav2_types)}; a plugin of "
+                          f"your own: import its module first or write "
                           f"'package.module:ClassName'") from None
     except PluginError as exc:
         raise ConfigError(str(exc), file=file, key_path=where) from None
