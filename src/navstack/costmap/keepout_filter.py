@@ -33,7 +33,7 @@ from navstack.costmap.costmap_filter import (
     CostmapFilterParams,
 )
 from navstack.costmap.grid_sampling import window_centres
-from navstack.costmap.layer import Bounds, CellWindow
+from navstack.costmap.layer import Bounds, CellWindow, register_layer
 
 
 class KeepoutFilterParams(CostmapFilterParams):
@@ -50,10 +50,11 @@ def mask_to_costs(values: NDArray[np.int8]) -> NDArray[np.uint8]:
     return np.where(values < 0, NO_INFORMATION, cost).astype(np.uint8)
 
 
+@register_layer("KeepoutFilter", nav2="nav2_costmap_2d::KeepoutFilter")
 class KeepoutFilter(CostmapFilter):
     """Writes keepout zones (lethal) and lane preferences (costs) from a mask."""
 
-    params_type = KeepoutFilterParams
+    params_model = KeepoutFilterParams
     params: KeepoutFilterParams
 
     def __init__(self, name: str = "keepout_filter",

@@ -27,7 +27,7 @@ from navstack.costmap.costmap_filter import (
     CostmapFilterInfo,
     CostmapFilterParams,
 )
-from navstack.costmap.layer import Bounds, CellWindow
+from navstack.costmap.layer import Bounds, CellWindow, register_layer
 
 
 class SpeedFilterParams(CostmapFilterParams):
@@ -36,10 +36,11 @@ class SpeedFilterParams(CostmapFilterParams):
     speed_limit_topic: str = "speed_limit"
 
 
+@register_layer("SpeedFilter", nav2="nav2_costmap_2d::SpeedFilter")
 class SpeedFilter(CostmapFilter):
     """Looks up speed limits; see the module docstring."""
 
-    params_type = SpeedFilterParams
+    params_model = SpeedFilterParams
     params: SpeedFilterParams
 
     def __init__(self, name: str = "speed_filter",

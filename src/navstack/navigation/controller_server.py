@@ -13,16 +13,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from pydantic import Field
 
 from navstack.core.errors import ControllerError, InvalidMessage, InvalidPath, TransformError
 from navstack.core.geometry import angle_diff, se2_compose
+from navstack.core.interfaces import Controller, GoalChecker, ProgressChecker
 from navstack.core.msgs import Odometry, Path, Pose2D, Twist, Twist2D
 from navstack.core.params import Params
+from navstack.core.plugins import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS
 from navstack.core.polygon import Footprint
+from navstack.core.registry import ClassRegistry
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.messages import (
     FOLLOW_PATH,
@@ -30,14 +33,7 @@ from navstack.navigation.messages import (
     FollowPathFeedback,
     FollowPathGoal,
 )
-from navstack.navigation.plugins import (
-    CONTROLLERS,
-    GOAL_CHECKERS,
-    PROGRESS_CHECKERS,
-    build_plugin,
-    load_class,
-    plugin_section,
-)
+from navstack.navigation.plugins import load_plugin, plugin_section
 from navstack.runtime.actions import ActionServer, GoalHandle
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Node, Runtime
@@ -65,6 +61,8 @@ class ControllerServerParams(Params):
 
 _KNOWN = set(ControllerServerParams.model_fields)
 
+C = TypeVar("C", GoalChecker, ProgressChecker)
+
 
 def path_distance(xy: np.ndarray, x: float, y: float) -> float:
     """Length of the path from its point closest to (x, y) to its end."""
@@ -87,18 +85,19 @@ class ControllerServer(Node):
         self.params = ControllerServerParams.from_mapping(server, file=file, key_path=name)
         p = self.params
         self.local_costmap = local_costmap
-        self.controllers: dict[str, Any] = {}
+        self.controllers: dict[str, Controller] = {}
         for cname in p.controller_plugins:
+            key = f"{name}.{cname}"
             plugin, section = plugin_section(params, cname, "dwb_core::DWBLocalPlanner",
                                              file=file, key_path=name)
-            cls = load_class(CONTROLLERS, plugin, file=file, key_path=f"{name}.{cname}")
-            self.controllers[cname] = build_plugin(cls, section, file=file,
-                                                   key_path=f"{name}.{cname}",
-                                                   footprint=footprint)
-        self.goal_checkers = {
+            cls = load_plugin(CONTROLLERS, plugin, file=file, key_path=key)
+            self.controllers[cname] = cls(
+                cls.params_model.from_mapping(section, file=file, key_path=key),
+                footprint=footprint)
+        self.goal_checkers: dict[str, GoalChecker] = {
             g: self._checker(params, g, GOAL_CHECKERS, "nav2_controller::SimpleGoalChecker",
                              file) for g in p.goal_checker_plugins}
-        self.progress_checkers = {
+        self.progress_checkers: dict[str, ProgressChecker] = {
             c: self._checker(params, c, PROGRESS_CHECKERS,
                              "nav2_controller::SimpleProgressChecker", file)
             for c in p.progress_checker_plugins}
@@ -109,11 +108,12 @@ class ControllerServer(Node):
         self.last_cmd = Twist2D()
         self._plan_cache: tuple[Path, Pose2D, Path] | None = None
 
-    def _checker(self, params: Mapping[str, Any], name: str, registry: Any, default: str,
-                 file: str) -> Any:
+    def _checker(self, params: Mapping[str, Any], name: str, registry: ClassRegistry[C],
+                 default: str, file: str) -> C:
+        key = f"{self.name}.{name}"
         plugin, section = plugin_section(params, name, default, file=file, key_path=self.name)
-        cls = load_class(registry, plugin, file=file, key_path=f"{self.name}.{name}")
-        return build_plugin(cls, section, file=file, key_path=f"{self.name}.{name}")
+        cls = load_plugin(registry, plugin, file=file, key_path=key)
+        return cls(cls.params_model.from_mapping(section, file=file, key_path=key))
 
     # --- lifecycle ---------------------------------------------------------------------
     def on_configure(self) -> None:
@@ -144,8 +144,10 @@ class ControllerServer(Node):
             # Nav2 semantics: a new path replaces the running one without stopping
             self._goal.canceled(reason="preempted by a new path")
         else:
-            for checker in (*self.goal_checkers.values(), *self.progress_checkers.values()):
-                checker.reset()
+            for goal_checker in self.goal_checkers.values():
+                goal_checker.reset()
+            for progress_checker in self.progress_checkers.values():
+                progress_checker.reset()
             self._last_valid_cmd_t = self.now
         handle.execute()
         self._goal = handle
@@ -200,12 +202,9 @@ class ControllerServer(Node):
             self._goal = None
             return
         progress = next(iter(self.progress_checkers.values()))
-        if not progress.check(pose, self.now):
-            p = progress.params
+        if not progress.check(pose, self.now, goal_pose):
             self._abort(ControllerErrorCode.FAILED_TO_MAKE_PROGRESS,
-                        f"failed to make progress: moved less than "
-                        f"{p.required_movement_radius:.2f} m in "
-                        f"{p.movement_time_allowance:.1f} s")
+                        f"failed to make progress: {progress.failure_message()}")
             return
         controller = self.controllers[goal.controller_id or next(iter(self.controllers))]
         try:

@@ -188,9 +188,11 @@ class HealthMonitor:
         return limits
 
     def _progress_rule(self) -> tuple[float, float] | None:
+        from navstack.control.progress_checker import SimpleProgressChecker
+
         for checker in self.stack.controller.progress_checkers.values():
-            p = checker.params
-            if hasattr(p, "required_movement_radius"):
+            if isinstance(checker, SimpleProgressChecker):
+                p = checker.params
                 return float(p.required_movement_radius), float(p.movement_time_allowance)
         return None
 
