@@ -251,7 +251,7 @@ def _inside(xy: np.ndarray, margin: float = 0.0) -> np.ndarray:
 def test_planner_layer_and_dwb_critic_from_nav2_yaml(my_pkg: SimpleNamespace,
                                                      tmp_path: Path) -> None:
     nav2, world = _files(tmp_path, OVERLAY, DWB_OVERLAY)
-    stack = NavStack(str(world), nav2_params=nav2, seed=0)
+    stack = NavStack(str(world), nav2_params=nav2, seed=0).start()
     planner = stack.planner.planners["GridBased"]
     layer = stack.global_costmap.layered.layer("keep_off")
     dwb = stack.controller.controllers["FollowPath"]
@@ -302,7 +302,7 @@ def test_mppi_critic_from_nav2_yaml(my_pkg: SimpleNamespace, tmp_path: Path) -> 
     from navstack.benchmarks.navigation import nav2_params_for
 
     nav2, world = _files(tmp_path, OVERLAY, MPPI_OVERLAY, base=nav2_params_for("mppi"))
-    stack = NavStack(str(world), nav2_params=nav2, seed=0)
+    stack = NavStack(str(world), nav2_params=nav2, seed=0).start()
     mppi = stack.controller.controllers["FollowPath"]
     critic = mppi.optimizer.critics[-1]
     assert isinstance(critic, my_pkg.MPPISpeedCapCritic)
