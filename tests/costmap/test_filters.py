@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from navstack.core.errors import ConfigError
-from navstack.costmap import KeepoutFilter, LayeredCostmap, SpeedFilter
 from navstack.core.msgs import CostmapFilterInfo, Pose2D
+from navstack.costmap import KeepoutFilter, LayeredCostmap
 from navstack.costmap.costmap_filter import SPEED_FILTER_PERCENT, filter_values
 from navstack.costmap.keepout_filter import KeepoutFilterParams, mask_to_costs
 

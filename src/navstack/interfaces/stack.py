@@ -25,6 +25,7 @@ from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerPa
 from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
 from navstack.navigation.collision_monitor_node import CollisionMonitorNode
 from navstack.navigation.controller_server import ControllerServer
+from navstack.navigation.costmap_filter_servers import create_filter_servers
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
@@ -115,6 +116,8 @@ class NavStack:
                 slam_params = SlamParams.from_mapping({**overrides, **given},
                                                       key_path="slam_toolbox")
             self.slam = SlamNode(rt, slam_params)
+        # costmap filter info + mask servers (keepout / speed zones) the Nav2 file declares
+        self.filter_servers = create_filter_servers(rt, nav, file)
         self.global_costmap = CostmapNode(rt, "global_costmap",
                                           ros_parameters(nav, "global_costmap", file=file),
                                           self.footprint, file)
