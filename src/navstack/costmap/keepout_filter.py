@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from navstack.core.errors import ConfigError
-from navstack.core.msgs import CostmapFilterInfo
+from navstack.core.msgs import CostmapFilterInfo, OccupancyGrid
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
 from navstack.costmap.costmap_filter import (
     BASE_DEFAULT,
@@ -35,7 +35,7 @@ from navstack.costmap.costmap_filter import (
     CostmapFilter,
     CostmapFilterParams,
 )
-from navstack.costmap.grid_sampling import window_centres
+from navstack.costmap.grid_sampling import sample_window
 from navstack.costmap.layer import Bounds, CellWindow
 
 
@@ -65,6 +65,8 @@ class KeepoutFilter(CostmapFilter):
         self._pending = Bounds()
         self._extent = Bounds()
         self._overriding = False
+        self._costs: NDArray[np.uint8] = np.zeros((0, 0), np.uint8)
+        self._costs_of: OccupancyGrid | None = None
 
     def check_filter_info(self, info: CostmapFilterInfo, *, file: str = "",
                           key_path: str = "") -> None:
@@ -118,12 +120,13 @@ class KeepoutFilter(CostmapFilter):
     def update_costs(self, master: Costmap2D, window: CellWindow) -> None:
         if not self.enabled or self.mask is None or window.empty:
             return
-        pts = window_centres(master.origin_x, master.origin_y, master.resolution,
-                             window.min_i, window.min_j, window.max_i, window.max_j)
-        vals, inside = self.mask_values_at(pts)
-        shape = (window.max_j - window.min_j, window.max_i - window.min_i)
-        cost = mask_to_costs(vals).reshape(shape)
-        inside = inside.reshape(shape)
+        if self._costs_of is not self.mask:  # the mask's costs, once per mask
+            self._costs = mask_to_costs(self.mask_data)
+            self._costs_of = self.mask
+        sampled, inside = sample_window(
+            self._costs, self.mask.info, master.origin_x, master.origin_y, master.resolution,
+            (window.min_i, window.min_j, window.max_i, window.max_j), self.mask_in_costmap)
+        cost = np.asarray(sampled, dtype=np.uint8)
         if self.params.override_lethal_cost and self._overriding:
             cost[cost == LETHAL_OBSTACLE] = self.params.lethal_override_cost
         dst = master.data[window.slices]
