@@ -79,8 +79,9 @@ def body_points(polygon: NDArray[np.float64], spacing: float = BODY_GRID_M
     return np.vstack((p, grid[points_in_polygon(grid, p)]))
 
 
-def mask_values(grid: OccupancyGrid, xy: NDArray[np.float64]) -> NDArray[np.int16]:
-    """Mask values at map-frame points ``(N, 2)`` (-1 off the mask)."""
+def _cells(grid: OccupancyGrid, xy: NDArray[np.float64]
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
+    """``(row, col, on_mask)`` of map-frame points ``(N, 2)`` in the mask raster."""
     info = grid.info
     o = info.origin.to_pose2d()
     c, s = math.cos(o.theta), math.sin(o.theta)
@@ -88,41 +89,80 @@ def mask_values(grid: OccupancyGrid, xy: NDArray[np.float64]) -> NDArray[np.int1
     col = np.floor((c * dx + s * dy) / info.resolution).astype(np.int64)
     row = np.floor((-s * dx + c * dy) / info.resolution).astype(np.int64)
     ok = (col >= 0) & (col < info.width) & (row >= 0) & (row < info.height)
+    return row, col, ok
+
+
+def mask_values(grid: OccupancyGrid, xy: NDArray[np.float64]) -> NDArray[np.int16]:
+    """Mask values at map-frame points ``(N, 2)`` (-1 off the mask)."""
+    row, col, ok = _cells(grid, xy)
     out = np.full(len(xy), -1, np.int16)
     out[ok] = np.asarray(grid.data)[row[ok], col[ok]]
     return out
 
 
 @dataclass
-class KeepoutZone:
+class _Zone:
+    """Cells of one mask that form a zone, with a map-frame bounding box for a quick
+    "nowhere near" test."""
+
     name: str
     grid: OccupancyGrid
+    cells: NDArray[np.bool_] = field(init=False, repr=False)
+    box: tuple[float, float, float, float] = field(init=False)
+
+    def _set_cells(self, cells: NDArray[np.bool_]) -> None:
+        self.cells = cells
+        info = self.grid.info
+        rows, cols = np.nonzero(cells)
+        if len(rows) == 0:
+            self.box = (math.inf, math.inf, -math.inf, -math.inf)
+            return
+        corners = np.array([[cols.min(), rows.min()], [cols.max() + 1, rows.min()],
+                            [cols.min(), rows.max() + 1], [cols.max() + 1, rows.max() + 1]],
+                           dtype=np.float64) * info.resolution
+        world = info.origin.to_pose2d().transform_points(corners)
+        lo, hi = world.min(axis=0), world.max(axis=0)
+        self.box = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+    def near(self, x: float, y: float, radius: float) -> bool:
+        """Whether a disc of ``radius`` about ``(x, y)`` can reach the zone."""
+        x0, y0, x1, y1 = self.box
+        return x0 - radius <= x <= x1 + radius and y0 - radius <= y <= y1 + radius
+
+    def inside(self, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Whether map-frame points ``(N, 2)`` lie in the zone."""
+        row, col, ok = _cells(self.grid, xy)
+        out = np.zeros(len(xy), dtype=np.bool_)
+        out[ok] = self.cells[row[ok], col[ok]]
+        return out
+
+
+@dataclass
+class KeepoutZone(_Zone):
+    """The cells a keepout filter makes LETHAL (mask value 100)."""
+
     plans: int = 0
     plan_poses_inside: int = 0
     body_samples_inside: int = 0
 
-    @property
-    def cells(self) -> NDArray[np.bool_]:
-        return np.asarray(mask_to_costs(np.asarray(self.grid.data, np.int8)) == LETHAL_OBSTACLE)
-
-    def inside(self, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
-        v = mask_values(self.grid, xy)
-        return (v >= 0) & (mask_to_costs(v.astype(np.int8)) == LETHAL_OBSTACLE)
+    def __post_init__(self) -> None:
+        data = np.asarray(self.grid.data, np.int8)
+        self._set_cells(np.asarray(mask_to_costs(data) == LETHAL_OBSTACLE))
 
 
 @dataclass
-class SpeedZone:
-    name: str
-    grid: OccupancyGrid
-    limit: float
-    percentage: bool
-    cap_m_s: float
-    mask_values: tuple[int, ...]
+class SpeedZone(_Zone):
+    """The cells of one speed limit."""
+
+    limit: float = 0.0
+    percentage: bool = True
+    cap_m_s: float = 0.0
+    mask_values: tuple[int, ...] = ()
     samples_inside: int = 0
     max_speed_inside: float = 0.0
 
-    def inside(self, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
-        return np.isin(mask_values(self.grid, xy), self.mask_values)
+    def __post_init__(self) -> None:
+        self._set_cells(np.isin(np.asarray(self.grid.data), self.mask_values))
 
 
 @dataclass
@@ -147,6 +187,7 @@ class ZoneMonitor:
         polygon = self.stack.sim.sim.footprint.polygon
         self._centre = np.array(footprint_centroid(polygon))
         self._body = body_points(polygon)
+        self._reach = float(np.max(np.hypot(self._body[:, 0], self._body[:, 1])))
         if self:
             bus = self.stack.runtime.bus
             bus.subscribe(topic_name("plan"), Path, self._on_plan)
@@ -184,17 +225,16 @@ class ZoneMonitor:
         """One sample: true pose of base_link in the map frame and forward speed."""
         c, si = math.cos(yaw), math.sin(yaw)
         rot = np.array([[c, -si], [si, c]])
-        if self.keepout:
-            body = self._body @ rot.T + (x, y)
-            for k in self.keepout:
+        body: NDArray[np.float64] | None = None
+        for k in self.keepout:
+            if k.near(x, y, self._reach):
+                body = self._body @ rot.T + (x, y) if body is None else body
                 k.body_samples_inside += int(bool(k.inside(body).any()))
-        if self.speed:
-            centre = (rot @ self._centre + (x, y)).reshape(1, 2)
-            speed = abs(vx)
-            for z in self.speed:
-                if z.inside(centre)[0]:
-                    z.samples_inside += 1
-                    z.max_speed_inside = max(z.max_speed_inside, speed)
+        cx, cy = rot @ self._centre + (x, y)
+        for z in self.speed:
+            if z.near(cx, cy, 0.0) and z.inside(np.array([[cx, cy]]))[0]:
+                z.samples_inside += 1
+                z.max_speed_inside = max(z.max_speed_inside, abs(vx))
 
     def summary(self) -> dict[str, Any]:
         """The figures for the demo report."""
@@ -225,7 +265,8 @@ def _speed_zones(name: str, grid: OccupancyGrid, info: Any, max_speed: float
     zones = []
     for limit, vals in sorted(by_limit.items()):
         cap = limit / 100.0 * max_speed if percentage else limit
-        zones.append(SpeedZone(name, grid, limit, percentage, cap, tuple(vals)))
+        zones.append(SpeedZone(name, grid, limit=limit, percentage=percentage, cap_m_s=cap,
+                               mask_values=tuple(vals)))
     return zones
 
 
@@ -263,8 +304,7 @@ def zone_overlays(monitor: ZoneMonitor) -> list[ZoneOverlay]:
     out = [ZoneOverlay(k.grid, k.cells, "keepout zone", (0.85, 0.1, 0.1))
            for k in monitor.keepout]
     for z in monitor.speed:
-        cells = np.isin(np.asarray(z.grid.data), z.mask_values)
         unit = "%" if z.percentage else " m/s"
-        out.append(ZoneOverlay(z.grid, cells, f"speed zone {z.limit:g}{unit}",
+        out.append(ZoneOverlay(z.grid, z.cells, f"speed zone {z.limit:g}{unit}",
                                (1.0, 0.6, 0.0)))
     return out
