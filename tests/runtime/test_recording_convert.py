@@ -13,6 +13,7 @@ from navstack.core.msgs import (
     Bool,
     Clock,
     ColorRGBA,
+    CostmapFilterInfo,
     Float64,
     Header,
     Imu,
@@ -36,6 +37,7 @@ from navstack.core.msgs import (
     PoseWithCovariance,
     PoseWithCovarianceStamped,
     Quaternion,
+    SpeedLimit,
     String,
     TFMessage,
     Transform,
@@ -116,6 +118,8 @@ SAMPLES: list[Any] = [
            Vector3(0.5, 0.5, 0.5), ColorRGBA(1.0, 0.5, 0.0, 1.0), (Point(1, 2, 3),), "G1"),
     MarkerArray((Marker(ns="a", id=1), Marker(ns="b", id=2, text="x"))),
     GoalStatusArray((GoalStatusEntry(GoalInfo(bytes(range(16)), 4.5), 4),)),
+    CostmapFilterInfo(Header(1.5, ""), 1, "/speed_filter_mask", 100.0, -1.0),
+    SpeedLimit(Header(2.25, "odom"), True, 30.0),
 ]
 
 

@@ -4,7 +4,10 @@
 corridor, costmaps, NavFn planner, DWB controller, BT navigator with recoveries), sends
 one NavigateToPose goal per waypoint in the order of the waypoint file, shows live
 progress, and writes ``report.json``, ``report.md`` and ``trajectory.png`` to ``--out``.
-Success means every goal SUCCEEDED and the robot never touched anything.
+Success means every goal SUCCEEDED, the robot never touched anything and, when the Nav2
+parameters declare costmap filter zones (the golf cart's campus does), no plan and no part
+of the body entered a keepout zone and the true speed in each speed zone stayed within its
+cap + 5 % (:mod:`navstack.interfaces.zones`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from navstack.core.msgs import Path, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.plots import plot_trajectory
 from navstack.interfaces.stack import NavStack
+from navstack.interfaces.zones import ZoneMonitor, zone_lines, zone_overlays, zones_respected
 from navstack.navigation.waypoint_follower import load_waypoints
 from navstack.sim.collision import footprint_clearance
 
@@ -126,6 +130,7 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     nav = Navigator(stack)
     recorder = TrajectoryRecorder(stack)
     stack.runtime.scheduler.create_timer(0.1, recorder.sample, first_at=stack.now)
+    zones = ZoneMonitor(stack)
     plans: list[np.ndarray] = []
     stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
     records = [GoalRecord(name) for name, _ in waypoints]
@@ -142,7 +147,9 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     wall = time.perf_counter() - wall0
     traj = recorder.array()
     collisions = stack.sim.sim.collisions
-    success = all(r.status == "SUCCEEDED" for r in records) and collisions == 0
+    zone_summary = zones.summary() if zones else None
+    success = (all(r.status == "SUCCEEDED" for r in records) and collisions == 0
+               and (zone_summary is None or zones_respected(zone_summary)))
     report: dict[str, Any] = {
         "success": success,
         "world": world, "robot": robot, "seed": seed,
@@ -156,6 +163,10 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(stack.now / wall, 2) if wall > 0 else 0.0,
     }
+    if zone_summary is not None:
+        report["zones"] = zone_summary
+        for line in zone_lines(zone_summary):
+            live.done(line)
     if bag_summary is not None:
         report["bag"] = {"path": str(bag_summary.path), "messages": bag_summary.messages}
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
@@ -163,7 +174,8 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}
     plot_trajectory(stack.world.to_occupancy_grid(), traj[:, 1:3], plans, goals_xy,
                     out / "trajectory.png",
-                    title=f"navstack demo: {world}, {' -> '.join(r.name for r in records)}")
+                    title=f"navstack demo: {world}, {' -> '.join(r.name for r in records)}",
+                    zones=zone_overlays(zones))
     return report
 
 
@@ -238,7 +250,8 @@ def _markdown(r: dict[str, Any]) -> str:
     lines += ["", f"- collisions: {r['collisions']}",
               f"- minimum clearance: {r['min_clearance_m']:.3f} m",
               f"- simulated time: {r['sim_time_s']:.1f} s, wall time: {r['wall_time_s']:.1f} s "
-              f"(real-time factor {r['real_time_factor']:.1f})", "",
+              f"(real-time factor {r['real_time_factor']:.1f})",
+              *(f"- {line}" for line in zone_lines(r.get("zones"))), "",
               "![trajectory](trajectory.png)", ""]
     failed = [g for g in r["goals"] if g["reason"]]
     if failed:

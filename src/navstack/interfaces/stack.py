@@ -39,6 +39,7 @@ from navstack.navigation.behavior_server import BehaviorServer
 from navstack.navigation.bt_navigator import BtNavigator
 from navstack.navigation.collision_monitor_node import CollisionMonitorNode
 from navstack.navigation.controller_server import ControllerServer
+from navstack.navigation.costmap_filter_servers import FilterServers, create_filter_servers
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
@@ -75,6 +76,7 @@ class _Running:
     slam: SlamNode | None
     global_costmap: CostmapNode
     local_costmap: CostmapNode
+    filter_servers: FilterServers
     planner: PlannerServer
     controller: ControllerServer
     behaviors: BehaviorServer
@@ -135,13 +137,14 @@ class NavStack:
         rt = Runtime()
         sim = self._start_simulation(rt)
         map_server, amcl, slam = self._start_localization(rt)
+        filter_servers = self._start_filter_servers(rt)
         global_costmap, local_costmap = self._start_costmaps(rt)
         planner, controller, behaviors, monitor = self._start_servers(rt, global_costmap,
                                                                       local_costmap)
         navigator, follower = self._start_navigators(rt)
         self._running = _Running(rt, sim, map_server, amcl, slam, global_costmap,
-                                 local_costmap, planner, controller, behaviors, monitor,
-                                 navigator, follower)
+                                 local_costmap, filter_servers, planner, controller,
+                                 behaviors, monitor, navigator, follower)
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
@@ -169,6 +172,11 @@ class NavStack:
         amcl = AmclNode(rt, d.amcl) if d.amcl is not None else None
         slam = SlamNode(rt, d.slam) if d.slam is not None else None
         return map_server, amcl, slam
+
+    def _start_filter_servers(self, rt: Runtime) -> FilterServers:
+        """Costmap filter info + mask servers (keepout / speed zones) the Nav2 file declares."""
+        d = self.description
+        return create_filter_servers(rt, d.nav2_params, d.nav2_file)
 
     def _start_costmaps(self, rt: Runtime) -> tuple[CostmapNode, CostmapNode]:
         d = self.description
@@ -229,6 +237,10 @@ class NavStack:
     @property
     def local_costmap(self) -> CostmapNode:
         return self._up().local_costmap
+
+    @property
+    def filter_servers(self) -> FilterServers:
+        return self._up().filter_servers
 
     @property
     def planner(self) -> PlannerServer:

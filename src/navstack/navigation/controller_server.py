@@ -7,6 +7,9 @@ velocity and publishes it.  Parameters are Nav2's (``controller_frequency``,
 ``failure_tolerance``, ``controller_plugins``, ``goal_checker_plugins``,
 ``progress_checker_plugins`` and the plugin sections).  A goal never fails silently:
 every abort carries a FollowPath error code and a sentence naming the cause.
+Speed limits (``nav2_msgs/SpeedLimit`` on ``speed_limit_topic``, from a costmap speed
+filter) are passed to every controller plugin with ``set_speed_limit(limit, percentage)``,
+as Nav2's ``speedLimitCallback`` does; 0 restores the plugins' own maxima.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from pydantic import Field
 from navstack.core.errors import ControllerError, InvalidMessage, InvalidPath, TransformError
 from navstack.core.geometry import angle_diff, se2_compose
 from navstack.core.interfaces import Controller, GoalChecker, ProgressChecker
-from navstack.core.msgs import Odometry, Path, Pose2D, Twist, Twist2D
+from navstack.core.msgs import Odometry, Path, Pose2D, SpeedLimit, Twist, Twist2D
 from navstack.core.params import Params
 from navstack.core.plugins import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS
 from navstack.core.polygon import Footprint
@@ -107,6 +110,9 @@ class ControllerServer(Node):
         self.cycles = 0
         self.last_cmd = Twist2D()
         self._plan_cache: tuple[Path, Pose2D, Path] | None = None
+        self.speed_limit: tuple[float, bool] = (0.0, True)
+        """Last speed limit given to the controllers: ``(limit, percentage)``, 0 = none."""
+        self.rejected_speed_limits = 0
 
     def _checker(self, params: Mapping[str, Any], name: str, registry: ClassRegistry[C],
                  default: str, file: str) -> C:
@@ -120,6 +126,8 @@ class ControllerServer(Node):
         p = self.params
         self.pub_cmd = self.create_publisher(p.cmd_vel_topic, Twist, QoS(depth=1))
         self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=1))
+        self.create_subscription(p.speed_limit_topic, SpeedLimit, self._on_speed_limit,
+                                 QoS(depth=10))
         self.server: ActionServer[FollowPathGoal] = ActionServer(
             self.bus, FOLLOW_PATH, self._on_goal, self._on_cancel)
         self.create_timer(1.0 / p.controller_frequency, self._cycle)
@@ -129,6 +137,18 @@ class ControllerServer(Node):
 
     def _on_odom(self, msg: Odometry) -> None:
         self._velocity = msg.twist.twist.to_twist2d()
+
+    def _on_speed_limit(self, msg: SpeedLimit) -> None:
+        """Nav2 ``speedLimitCallback``: every controller gets the new limit."""
+        limit = float(msg.speed_limit)
+        if not math.isfinite(limit) or limit < 0.0 or (msg.percentage and limit > 100.0):
+            self.rejected_speed_limits += 1
+            self.log.error("ignoring SpeedLimit %r on %s: the limit must be finite and in "
+                           "[0, 100] %% or >= 0 m/s", limit, self.params.speed_limit_topic)
+            return
+        for controller in self.controllers.values():
+            controller.set_speed_limit(limit, bool(msg.percentage))
+        self.speed_limit = (limit, bool(msg.percentage))
 
     # --- goals --------------------------------------------------------------------------
     def _on_goal(self, handle: GoalHandle[FollowPathGoal]) -> bool | str:

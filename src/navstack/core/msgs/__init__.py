@@ -23,6 +23,7 @@ from navstack.core.msgs.geometry_msgs import (
     TwistWithCovarianceStamped,
     Vector3,
 )
+from navstack.core.msgs.nav2_msgs import CostmapFilterInfo, SpeedLimit
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
@@ -45,6 +46,7 @@ __all__ = [
     "Bool",
     "Clock",
     "ColorRGBA",
+    "CostmapFilterInfo",
     "Float64",
     "Header",
     "Imu",
@@ -68,6 +70,7 @@ __all__ = [
     "PoseWithCovariance",
     "PoseWithCovarianceStamped",
     "Quaternion",
+    "SpeedLimit",
     "String",
     "TFMessage",
     "Transform",

@@ -14,11 +14,12 @@ from functools import lru_cache
 from types import SimpleNamespace
 from typing import Any
 
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from navstack.core import msgs as m
 from navstack.runtime.recording import convert_geometry as g
+from navstack.runtime.recording import convert_nav2 as n
 from navstack.runtime.recording import convert_sensor as s
 from navstack.runtime.recording.cdr import FAST_ENCODERS
 from navstack.runtime.recording.errors import UnsupportedTypeError
@@ -82,6 +83,10 @@ _TABLE: tuple[Conversion, ...] = (
                s.from_marker_array),
     Conversion("action_msgs/msg/GoalStatusArray", GoalStatusArray, s.to_goal_status_array,
                s.from_goal_status_array),
+    Conversion("nav2_msgs/msg/CostmapFilterInfo", m.CostmapFilterInfo,
+               n.to_costmap_filter_info, n.from_costmap_filter_info),
+    Conversion("nav2_msgs/msg/SpeedLimit", m.SpeedLimit, n.to_speed_limit,
+               n.from_speed_limit),
 )
 
 #: ROS 1 (and old) spellings read as the ROS 2 type of the same layout
@@ -98,8 +103,12 @@ def supported_ros_types() -> list[str]:
 
 @lru_cache(maxsize=1)
 def humble_typestore() -> Typestore:
-    """The ROS 2 Humble typestore (built once; rosbags typestores are read-only here)."""
-    return get_typestore(Stores.ROS2_HUMBLE)
+    """The ROS 2 Humble typestore plus the nav2_msgs types the bus carries (built once;
+    read-only afterwards)."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name, text in n.NAV2_MSG_DEFINITIONS.items():
+        store.register(get_types_from_msg(text, name))
+    return store
 
 
 def _short_names(store: Typestore) -> SimpleNamespace:
