@@ -190,17 +190,3 @@ def test_add_scan_uses_sensor_pose() -> None:
     layer.add_scan(scan([1.0]), Pose2D(1.05, 1.05, np.pi / 2), 0.3)  # single source: default
     lc.update_map(1.0, 1.0, 0.0)
     assert np.argwhere(lc.costmap.data == 254).tolist() == [[20, 10]]
-
-
-def test_a_layer_written_with_the_former_params_type_name_still_loads() -> None:
-    from navstack.costmap.layer import Layer, LayerParams
-
-    class OldParams(LayerParams):
-        level: int = 3
-
-    class OldStyleLayer(Layer):
-        params_type = OldParams
-
-    layer = OldStyleLayer.from_mapping("old", {"level": 7})
-    assert OldStyleLayer.params_model is OldParams
-    assert isinstance(layer.params, OldParams) and layer.params.level == 7

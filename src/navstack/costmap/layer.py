@@ -125,14 +125,6 @@ class Layer:
     clearable: ClassVar[bool] = False
     """Whether Nav2's clear-costmap services reset this layer (obstacle-type layers)."""
 
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        """Accept the attribute's former name: a subclass that sets ``params_type`` (and
-        not ``params_model``) gets it as its ``params_model``."""
-        super().__init_subclass__(**kwargs)
-        former = vars(cls).get("params_type")
-        if former is not None and "params_model" not in vars(cls):
-            cls.params_model = former
-
     def __init__(self, name: str, params: LayerParams | None = None) -> None:
         self.name = name
         self.params = params if params is not None else self.params_model()
