@@ -32,11 +32,12 @@ from typing import Any, TypeVar
 
 from pydantic import Field
 
-from navstack.core.errors import NavstackError
-from navstack.core.msgs import Bool, Twist
+from navstack.core.errors import BusError, NavstackError
+from navstack.core.msgs import Twist
 from navstack.core.params import Params
 from navstack.interfaces.stack import NavStack
-from navstack.runtime.bus import LATCHED, QoS
+from navstack.nodes.estop import EStopClient
+from navstack.runtime.bus import QoS
 from navstack.runtime.node import Runtime
 
 T = TypeVar("T")
@@ -67,65 +68,64 @@ def _is_zero(msg: Twist) -> bool:
 
 
 class EStopGate:
-    """Latched emergency stop at the last stage before the base: ``/cmd_vel``.
+    """The dashboard's latched emergency stop: an :class:`EStopClient` with authority
+    ``web`` on twist_mux's lock ``/emergency_stop`` (``docs/command_path.md``).
 
-    The base (the simulator node, or a driver) listens on ``topic``.  While latched, every
-    non-zero command that reaches that topic -- from the controller through the collision
-    monitor, a behavior, teleop or anything else -- is answered at once, at the same
-    simulated instant, by a zero command on the same topic; since the bus delivers in order
-    and no simulated time passes in between, the base integrates zero velocity only.  A
-    latch also publishes zero immediately, so the robot is commanded to stop even when no
-    other source is publishing.  The latch holds until :meth:`release` is called explicitly
-    (twist_mux's ``e_stop`` lock semantics); its state is published latched on
-    ``status_topic`` (``std_msgs/Bool``) for other nodes and recorders.
+    :meth:`latch` publishes true on the lock; the twist mux answers at the same simulated
+    instant with a zero on ``/cmd_vel`` and masks every input below the lock's priority
+    (navigation, teleop...) until :meth:`release` publishes false.  The state follows the
+    lock, so a latch from any source (phone, Telegram, joystick, the lock topic itself)
+    shows here as latched; a release is refused (``EStopReleaseRefused``, HTTP 409) while
+    another authority holds the latch.  ``overrides`` counts the zero commands that reached
+    ``topic`` while latched.
 
     Navigation is not cancelled: as with a hardware e-stop under Nav2, the running task
     resumes after release (or fails through its progress checker if held long enough).
     """
 
     def __init__(self, runtime: Runtime, topic: str = "/cmd_vel",
-                 status_topic: str = "/e_stop") -> None:
+                 authority: str = "web") -> None:
         self.runtime = runtime
         self.topic = topic
-        self._pub = runtime.bus.publisher(topic, Twist, QoS(depth=1))
-        self._status = runtime.bus.publisher(status_topic, Bool, LATCHED)
-        self._sub = runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
-        self.latched = False
-        self.latched_at: float | None = None
-        self.released_at: float | None = None
-        self.reason = ""
+        self.client = EStopClient(runtime, authority)
         self.overrides = 0
-        self._status.publish(Bool(False))
+        with contextlib.suppress(BusError):  # a TwistStamped base: nothing to count
+            runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
+
+    @property
+    def latched(self) -> bool:
+        return self.client.latched
+
+    @property
+    def latched_at(self) -> float | None:
+        return self.client.latched_at
+
+    @property
+    def released_at(self) -> float | None:
+        return self.client.released_at
+
+    @property
+    def reason(self) -> str:
+        return self.client.reason
 
     def latch(self, reason: str = "") -> float:
-        """Latch (idempotent) and command zero velocity now; returns the latch time [s]."""
-        if not self.latched:
-            self.latched = True
-            self.latched_at = self.runtime.now
-            self.reason = reason
-            self._status.publish(Bool(True))
-        self._pub.publish(Twist())
-        assert self.latched_at is not None
-        return self.latched_at
+        """Latch (idempotent); returns the time [s] the lock was first latched, which is
+        when the mux commanded the base to zero."""
+        return self.client.latch(reason)
 
     def release(self) -> float:
-        """Release the latch; commands pass again from the next one.  Returns the time [s]."""
-        if self.latched:
-            self.latched = False
-            self.released_at = self.runtime.now
-            self.reason = ""
-            self._status.publish(Bool(False))
-        return self.runtime.now
+        """Release the latch; commands pass again from the next one.  Returns the time [s].
+        Raises ``EStopReleaseRefused`` when another authority holds the latch."""
+        return self.client.release()
 
     def _on_cmd(self, msg: Twist) -> None:
-        if self.latched and not _is_zero(msg):
+        if self.client.latched and _is_zero(msg):
             self.overrides += 1
-            self._pub.publish(Twist())
 
     def state(self) -> dict[str, Any]:
         return {"latched": self.latched, "latched_at": self.latched_at,
                 "released_at": self.released_at, "reason": self.reason,
-                "overrides": self.overrides}
+                "holder": self.client.holder, "overrides": self.overrides}
 
 
 class LiveRunner:
