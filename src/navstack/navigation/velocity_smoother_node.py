@@ -1,0 +1,61 @@
+"""``VelocitySmootherNode``: ``/cmd_vel_nav`` -> smoothing -> ``/cmd_vel_smoothed`` (Nav2
+``velocity_smoother``).
+
+Takes the latest command (``Twist``, or ``TwistStamped`` with ``enable_stamped_cmd_vel``)
+and, for ``feedback: CLOSED_LOOP``, the odometry twist; publishes
+:meth:`navstack.control.velocity_smoother.VelocitySmoother.cycle`'s output on a timer at
+``smoothing_frequency``.  Speed limits are not applied here (Nav2 applies them in the
+controller, and so does navstack).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from navstack.control.velocity_smoother import VelocitySmoother, VelocitySmootherParams
+from navstack.core.msgs import Header, Odometry, Twist, TwistStamped
+from navstack.runtime.bus import QoS
+from navstack.runtime.node import Node, Runtime
+
+__all__ = ["VelocitySmootherNode"]
+
+
+class VelocitySmootherNode(Node):
+    """Nav2's velocity smoother on the bus."""
+
+    def __init__(self, runtime: Runtime, params: VelocitySmootherParams | None = None,
+                 name: str = "velocity_smoother") -> None:
+        super().__init__(name, runtime)
+        self.params = params or VelocitySmootherParams()
+        self.smoother = VelocitySmoother(self.params)
+        self.published = 0
+
+    def on_configure(self) -> None:
+        p = self.params
+        kind: type[Any] = TwistStamped if p.enable_stamped_cmd_vel else Twist
+        self.pub = self.create_publisher(p.cmd_vel_out_topic, kind, QoS(depth=1))
+        self.create_subscription(p.cmd_vel_in_topic, kind, self._on_cmd, QoS(depth=1))
+        if p.feedback == "CLOSED_LOOP":
+            self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=10))
+        self.create_timer(1.0 / p.smoothing_frequency, self._cycle)
+
+    def on_deactivate(self) -> None:
+        self.smoother.reset()
+
+    def _on_cmd(self, msg: Twist | TwistStamped) -> None:
+        twist = msg.twist if isinstance(msg, TwistStamped) else msg
+        if not self.smoother.command(twist.to_twist2d(), self.now):
+            self.log.warning("velocity_smoother: ignoring a non-finite command %s", twist)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self.smoother.odometry(msg.twist.twist.to_twist2d(), self.now)
+
+    def _cycle(self) -> None:
+        out = self.smoother.cycle(self.now)
+        if out is None:
+            return
+        self.published += 1
+        if self.params.enable_stamped_cmd_vel:
+            self.pub.publish(TwistStamped(Header(self.now, "base_link"), out.to_twist()))
+        else:
+            self.pub.publish(out.to_twist())
