@@ -4,6 +4,7 @@ Field names follow the ROS 2 message of the same name; arrays are numpy; time is
 seconds.  ``runtime/`` converts to ROS time and CDR at the boundary.
 """
 
+from navstack.core.msgs.command_msgs import CollisionMonitorState, Joy, Range
 from navstack.core.msgs.geometry_msgs import (
     Point,
     Polygon,
@@ -45,11 +46,13 @@ from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
 __all__ = [
     "Bool",
     "Clock",
+    "CollisionMonitorState",
     "ColorRGBA",
     "CostmapFilterInfo",
     "Float64",
     "Header",
     "Imu",
+    "Joy",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -70,6 +73,7 @@ __all__ = [
     "PoseWithCovariance",
     "PoseWithCovarianceStamped",
     "Quaternion",
+    "Range",
     "SpeedLimit",
     "String",
     "TFMessage",
