@@ -2,8 +2,9 @@
 
 Wires the data flow of ARCHITECTURE.md §2: simulator (``/scan``, ``/odom``, ``/tf``) ->
 map server (``/map``) -> global costmap (map) + planner server -> local costmap (odom) +
-controller server and behavior server (``/cmd_vel_nav``) -> collision monitor
-(``/cmd_vel``) -> base; BT navigator and waypoint follower orchestrate.
+controller server and behavior server (``/cmd_vel_nav``) -> velocity smoother ->
+collision monitor -> twist_mux (``/cmd_vel``; e-stop lock ``/emergency_stop``) -> base;
+BT navigator and waypoint follower orchestrate (``docs/command_path.md``).
 Navigation parameters are a Nav2 parameter file (the packaged default is
 ``navstack/config/nav2_params.yaml``).  The robot's footprint comes from its profile and
 overrides ``robot_radius``/``footprint`` in the costmap sections.
@@ -43,9 +44,11 @@ from navstack.navigation.costmap_filter_servers import FilterServers, create_fil
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
+from navstack.navigation.velocity_smoother_node import VelocitySmootherNode
 from navstack.navigation.waypoint_follower import WaypointFollower
 from navstack.nodes.amcl import AmclNode
 from navstack.nodes.slam import SlamNode
+from navstack.nodes.twist_mux import TwistMuxNode
 from navstack.runtime.config import load_stack, load_yaml
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
@@ -80,7 +83,9 @@ class _Running:
     planner: PlannerServer
     controller: ControllerServer
     behaviors: BehaviorServer
+    velocity_smoother: VelocitySmootherNode
     collision_monitor: CollisionMonitorNode
+    twist_mux: TwistMuxNode
     navigator: BtNavigator
     waypoint_follower: WaypointFollower
 
@@ -139,12 +144,13 @@ class NavStack:
         map_server, amcl, slam = self._start_localization(rt)
         filter_servers = self._start_filter_servers(rt)
         global_costmap, local_costmap = self._start_costmaps(rt)
-        planner, controller, behaviors, monitor = self._start_servers(rt, global_costmap,
-                                                                      local_costmap)
+        planner, controller, behaviors = self._start_servers(rt, global_costmap,
+                                                             local_costmap)
+        smoother, monitor, mux = self._start_command_chain(rt)
         navigator, follower = self._start_navigators(rt)
         self._running = _Running(rt, sim, map_server, amcl, slam, global_costmap,
                                  local_costmap, filter_servers, planner, controller,
-                                 behaviors, monitor, navigator, follower)
+                                 behaviors, smoother, monitor, mux, navigator, follower)
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
@@ -185,17 +191,23 @@ class NavStack:
 
     def _start_servers(self, rt: Runtime, global_costmap: CostmapNode,
                        local_costmap: CostmapNode
-                       ) -> tuple[PlannerServer, ControllerServer, BehaviorServer,
-                                  CollisionMonitorNode]:
-        """Planner, controller and behavior servers, and the collision monitor."""
+                       ) -> tuple[PlannerServer, ControllerServer, BehaviorServer]:
+        """Planner, controller and behavior servers."""
         d = self.description
         planner = PlannerServer(rt, d.planner_server, global_costmap, d.nav2_file,
                                 footprint=d.footprint)
         controller = ControllerServer(rt, d.controller_server, local_costmap, d.footprint,
                                       d.nav2_file)
         behaviors = BehaviorServer(rt, d.behavior_server, collision_checker=self.local_collision)
-        monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor)
-        return planner, controller, behaviors, monitor
+        return planner, controller, behaviors
+
+    def _start_command_chain(self, rt: Runtime
+                             ) -> tuple[VelocitySmootherNode, CollisionMonitorNode, TwistMuxNode]:
+        """Velocity smoother -> collision monitor -> twist_mux (docs/command_path.md)."""
+        d = self.description
+        return (VelocitySmootherNode(rt, d.velocity_smoother),
+                CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor),
+                TwistMuxNode(rt, d.twist_mux))
 
     def _start_navigators(self, rt: Runtime) -> tuple[BtNavigator, WaypointFollower]:
         d = self.description
@@ -255,8 +267,16 @@ class NavStack:
         return self._up().behaviors
 
     @property
+    def velocity_smoother(self) -> VelocitySmootherNode:
+        return self._up().velocity_smoother
+
+    @property
     def collision_monitor(self) -> CollisionMonitorNode:
         return self._up().collision_monitor
+
+    @property
+    def twist_mux(self) -> TwistMuxNode:
+        return self._up().twist_mux
 
     @property
     def navigator(self) -> BtNavigator:

@@ -4,8 +4,10 @@
 Takes the latest command (``Twist``, or ``TwistStamped`` with ``enable_stamped_cmd_vel``)
 and, for ``feedback: CLOSED_LOOP``, the odometry twist; publishes
 :meth:`navstack.control.velocity_smoother.VelocitySmoother.cycle`'s output on a timer at
-``smoothing_frequency``.  Speed limits are not applied here (Nav2 applies them in the
-controller, and so does navstack).
+``smoothing_frequency``, phased 1 ms after the controller's cycle so a command is
+smoothed in the cycle it was computed in (a timer firing at the same instant would run
+before the command is delivered, adding one period of latency).  Speed limits are not
+applied here (Nav2 applies them in the controller, and so does navstack).
 """
 
 from __future__ import annotations
@@ -17,7 +19,10 @@ from navstack.core.msgs import Header, Odometry, Twist, TwistStamped
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Node, Runtime
 
-__all__ = ["VelocitySmootherNode"]
+__all__ = ["PHASE", "VelocitySmootherNode"]
+
+PHASE = 1e-3
+"""[s] the smoothing timer runs this long after the instants of the controller's cycles."""
 
 
 class VelocitySmootherNode(Node):
@@ -37,9 +42,16 @@ class VelocitySmootherNode(Node):
         self.create_subscription(p.cmd_vel_in_topic, kind, self._on_cmd, QoS(depth=1))
         if p.feedback == "CLOSED_LOOP":
             self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=10))
-        self.create_timer(1.0 / p.smoothing_frequency, self._cycle)
+
+    def on_activate(self) -> None:
+        # PHASE after the controller's cycle: a command published at t is smoothed at
+        # t + PHASE, not one period later (timers at equal times run before deliveries)
+        period = 1.0 / self.params.smoothing_frequency
+        self._timer = self.runtime.scheduler.create_timer(
+            period, self._cycle, first_at=self.now + PHASE)
 
     def on_deactivate(self) -> None:
+        self._timer.cancel()
         self.smoother.reset()
 
     def _on_cmd(self, msg: Twist | TwistStamped) -> None:

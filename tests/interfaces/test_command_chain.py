@@ -1,0 +1,50 @@
+"""The command chain's parameters: defaults from the robot, and broken links refused."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from navstack.core.errors import ConfigError
+from navstack.interfaces.command_chain import command_chain
+from navstack.interfaces.stack import default_nav2_params_path
+from navstack.runtime.config import load_yaml
+from navstack.sim.robot import load_robot
+
+
+def test_packaged_chain_links_controller_to_base() -> None:
+    chain = command_chain(load_yaml(default_nav2_params_path()), "nav2.yaml",
+                          load_robot("diff_drive"))
+    assert chain.controller_server["cmd_vel_topic"] == "/cmd_vel_nav"
+    assert chain.velocity_smoother.cmd_vel_out_topic == chain.collision_monitor.cmd_vel_in_topic
+    assert chain.collision_monitor.cmd_vel_out_topic == "/nav_vel"
+    assert [e.topic for e in chain.twist_mux.locks] == ["/emergency_stop"]
+
+
+def test_file_without_sections_gets_robot_limits_and_body_approach() -> None:
+    chain = command_chain({}, "user.yaml", load_robot("golf_cart"))
+    sm = chain.velocity_smoother
+    assert sm.max_velocity == (2.5, 0.0, 1.0) and sm.min_velocity == (-0.35, 0.0, -1.0)
+    assert sm.max_accel == (1.0, 0.0, 20.0)  # Ackermann: yaw rate not rate limited
+    assert chain.behavior_server["cmd_vel_topic"] == "/cmd_vel_nav"
+    assert chain.collision_monitor.polygons == ["FootprintApproach"]
+    assert chain.twist_mux.topics[0].topic == "/nav_vel"
+
+
+@pytest.mark.parametrize(("nav", "message"), [
+    ({"controller_server": {"ros__parameters": {"cmd_vel_topic": "/cmd_vel"}}},
+     r"user.yaml: controller_server.ros__parameters.cmd_vel_topic: publishes on '/cmd_vel', "
+     r"outside the command chain \(use the velocity smoother's input '/cmd_vel_nav'"),
+    ({"velocity_smoother": {"ros__parameters": {"cmd_vel_out_topic": "/smooth"}}},
+     r"velocity_smoother.ros__parameters.cmd_vel_out_topic: '/smooth' does not feed "
+     r"collision_monitor.ros__parameters.cmd_vel_in_topic \('/cmd_vel_smoothed'\)"),
+    ({"collision_monitor": {"ros__parameters": {"cmd_vel_out_topic": "/cmd_vel"}}},
+     r"collision_monitor.ros__parameters.cmd_vel_out_topic: '/cmd_vel' is not an input of "
+     r"the twist_mux"),
+    ({"velocity_smoother": {"ros__parameters": {"max_decel": [1.0, 0.0, -1.0]}}},
+     r"velocity_smoother: Value error, max_decel vx must be <= 0"),
+])
+def test_broken_chains_are_config_errors(nav: dict[str, Any], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        command_chain(nav, "user.yaml", load_robot("diff_drive"))
