@@ -158,7 +158,10 @@ class RotationShimController(Controller):
             target = self._sampled_point(xy, pose)
             bearing = angle_diff(math.atan2(target[1] - pose.y, target[0] - pose.x),
                                  pose.theta)
-            if abs(bearing) > p.angular_dist_threshold:
+            # near the end of the path the bearing to its last point is meaningless (the
+            # robot may stand on it): the primary controller (and its goal logic) drives
+            far = math.hypot(target[0] - pose.x, target[1] - pose.y) >= p.forward_sampling_distance
+            if far and abs(bearing) > p.angular_dist_threshold:
                 self.rotating = True
                 return self._rotate(bearing, pose, velocity, costmap)
         self.path_updated = self.rotating = False
