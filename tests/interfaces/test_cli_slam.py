@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from navstack.app import app
@@ -85,10 +86,30 @@ def test_skipped_lines_print_a_warning(tmp_path: Path) -> None:
             in res.output.splitlines())
 
 
-def test_bench_slam_without_data_names_the_folder(tmp_path: Path) -> None:
+def test_bench_slam_with_a_missing_data_dir_names_the_option(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["bench", "slam", "--data-dir", str(tmp_path / "nope")])
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [
+        f"error: --data-dir {tmp_path / 'nope'}: no such folder (it should hold carmen/, "
+        "g2o/ or movingai/ like navstack/data)"]
+
+
+def test_bench_slam_without_data_names_the_file_and_every_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without the shipped copy, an empty --data-dir names what is missing and where
+    each place searched was, and where to download the log."""
+    from navstack.benchmarks import common
+
+    empty = tmp_path / "shipped"
+    empty.mkdir()
+    monkeypatch.setattr(common, "SHIPPED_DATA", empty)
+    monkeypatch.setattr(common, "shared_data_dir", lambda: None)
+    monkeypatch.delenv("NAVSTACK_DATA", raising=False)
     res = runner.invoke(app, ["bench", "slam", "--data-dir", str(tmp_path)])
     assert res.exit_code == 2
     assert res.output.strip().splitlines() == [
-        f"error: CARMEN log intel-corrected.log.gz not found in {tmp_path}: pass --data-dir "
-        "with the folder that holds carmen/ (the shared data, ../shared/data; see its "
-        "README) or set NAVSTACK_DATA"]
+        f"error: benchmark data file carmen/intel-corrected.log.gz not found; searched "
+        f"{tmp_path} (--data-dir), {empty} (shipped). Download it from the Radish robotics "
+        "data set repository (radish.sourceforge.net), 'corrected' CARMEN logs of the "
+        "Freiburg SLAM benchmark, save it as DIR/carmen/intel-corrected.log.gz and pass "
+        "--data-dir DIR or set NAVSTACK_DATA=DIR"]

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navstack.benchmarks.common import default_data_dir
+from navstack.benchmarks.common import SHIPPED_DATA
 from navstack.core.geometry import normalize_angle, se2_between, se2_compose
 from navstack.mapping.carmen import CarmenLogNotFound, SkippedLine, read_carmen
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "carmen"
-SHARED = default_data_dir() / "carmen"
+SHIPPED = SHIPPED_DATA / "carmen"
 
 
 def _write(tmp_path: Path, lines: list[str], name: str = "t.log") -> Path:
@@ -219,12 +219,11 @@ def _rpe(ref: np.ndarray, est: np.ndarray) -> tuple[float, float]:
     return float(et.mean()), float(ea.mean())
 
 
-@pytest.mark.skipif(not SHARED.exists(), reason="shared CARMEN logs not available")
 @pytest.mark.parametrize(("name", "scans", "trans", "rot"), [
     ("intel", 910, 0.0585, 2.74), ("aces", 440, 0.0591, 1.56), ("csail", 406, 0.1017, 5.71)])
 def test_odometry_baseline_on_the_benchmark_logs(name: str, scans: int, trans: float,
                                                  rot: float) -> None:
-    log = read_carmen(SHARED / f"{name}-corrected.log.gz")
+    log = read_carmen(SHIPPED / f"{name}-corrected.log.gz")
     assert len(log.scans) == scans and log.skipped == [] and log.anchored
     et, ea = _rpe(log.reference_poses(), log.odometry_poses())
     assert et == pytest.approx(trans, abs=5e-5)

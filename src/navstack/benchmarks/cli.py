@@ -20,7 +20,9 @@ def bench(
     suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
     quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results here.")] = None,
-    data_dir: Annotated[Path | None, typer.Option(help="Shared data folder.")] = None,
+    data_dir: Annotated[Path | None, typer.Option(help=(
+        "Folder searched first for benchmark data (then NAVSTACK_DATA, the data shipped "
+        "in navstack/data, ../shared/data)."))] = None,
     controller: Annotated[str | None, typer.Option(
         "--controller", help="FollowPath controller of the navigation suite: dwb "
                              "(default), mppi or rpp.")] = None,

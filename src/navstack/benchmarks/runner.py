@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
+from navstack.benchmarks.common import BenchResult
 from navstack.core.errors import ConfigError, UnknownNameError
 
 # suite name -> module exposing run(quick, data_dir, **options) -> BenchResult
@@ -57,5 +57,5 @@ def run_suite(name: str, quick: bool = False, data_dir: Path | None = None,
                 f"benchmark suite '{name}' has no option '{key}'", key_path=key,
                 suggestion=f"suites that take it: {', '.join(takers)}" if takers
                 else "no suite takes it")
-    result: BenchResult = run(quick, data_dir or default_data_dir(), **kwargs)
+    result: BenchResult = run(quick, data_dir, **kwargs)
     return result
