@@ -27,10 +27,11 @@ from navstack.navigation.collision_monitor_node import CollisionMonitorNode
 from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
+from navstack.navigation.nav2_params import Nav2Params, load_nav2_params, stack_navigation
 from navstack.navigation.planner_server import PlannerServer
 from navstack.navigation.trees import NavigateTreeParams
 from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
-from navstack.runtime.config import load_stack, load_yaml, ros_parameters
+from navstack.runtime.config import load_stack, ros_parameters
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
@@ -50,7 +51,8 @@ class NavStack:
     """Simulator + Nav2-equivalent servers, configured and active, in one ``Runtime``."""
 
     def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
-                 nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
+                 nav2_params: str | Path | Mapping[str, Any] | Nav2Params | None = None,
+                 seed: int = 0,
                  spawn: Pose2D | None = None, perfect_localization: bool = True,
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
                  slam: bool | SlamParams | Mapping[str, Any] = False,
@@ -67,11 +69,8 @@ class NavStack:
         ``amcl``: localize with AMCL on the known map instead of the simulator's perfect
         ``map -> odom`` (Nav2 ``amcl`` parameters, ``True`` for the defaults); the
         initial pose is the spawn pose (``set_initial_pose``) unless given."""
-        if nav2_params is None or isinstance(nav2_params, str | Path):
-            path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
-            nav, file = load_yaml(path), str(path)
-        else:
-            nav, file = dict(nav2_params), "<nav2 params>"
+        checked = load_nav2_params(nav2_params)  # errors name the file; partial files merge
+        nav, file = checked.data, checked.file
         self.nav2_params = nav
         self.runtime = rt = Runtime()
         self.world = load_world(world) if isinstance(world, str) else world
@@ -163,7 +162,7 @@ class NavStack:
         cfg = load_stack(path)
         robot = (load_robot(cfg.robot) if isinstance(cfg.robot, str)
                  else robot_from_mapping(cfg.robot, file=str(path)))
-        nav = cfg.navigation_params() or None
+        nav = stack_navigation(cfg)
         spawn = Pose2D(*cfg.world.spawn) if cfg.world.spawn is not None else None
         return cls(cfg.world.name, robot, nav, cfg.seed, spawn,
                    cfg.world.perfect_localization, cfg.sim.physics_rate_hz)
