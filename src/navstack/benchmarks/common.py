@@ -11,6 +11,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+Progress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: suites that take ``progress=`` report their stages."""
+
+
+def no_progress(stage: str, done: int, total: int) -> None:
+    """The default :data:`Progress`: says nothing."""
+
 
 @dataclass
 class BenchResult:

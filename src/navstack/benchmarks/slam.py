@@ -26,7 +26,7 @@ import math
 import time
 from pathlib import Path
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
+from navstack.benchmarks.common import BenchResult, Progress, default_data_dir, no_progress
 from navstack.core.errors import NavstackError
 from navstack.mapping.offline import run_carmen
 
@@ -64,13 +64,22 @@ def log_path(data_dir: Path, name: str) -> Path:
     return path
 
 
-def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
+def _prefixed(progress: Progress, prefix: str) -> Progress:
+    def report(stage: str, done: int, total: int) -> None:
+        progress(f"{prefix} {stage}", done, total)
+
+    return report
+
+
+def run(quick: bool, data_dir: Path | None = None,
+        progress: Progress = no_progress) -> BenchResult:
     """Run SLAM on the three logs; metrics as in the module docstring."""
     root = data_dir or default_data_dir()
     paths = {name: log_path(root, name) for name in LOGS}  # fail before any work
     result = BenchResult("slam")
     for name, path in paths.items():
-        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None)
+        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None,
+                         progress=_prefixed(progress, name))
         if res.rpe is None:
             raise BenchDataMissing(f"{path}: no reference poses (not an anchored 'corrected' "
                                    "log), cannot score it")
@@ -97,7 +106,9 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         if res.speedup is None:
             result.notes.append(f"{name}: timestamps too coarse to give the log duration "
                                 f"({name}_speedup left out)")
+    progress("simulated mapping", 0, 1)
     _run_sim(result, quick)
+    progress("simulated mapping", 1, 1)
     scope = (f"quick: first {QUICK_SCANS} scans of each log, budgets not checked" if quick
              else "full logs, every scan a node (log profile), batch optimisation at the end")
     result.notes += [
