@@ -99,7 +99,6 @@ def show_config_notes() -> None:
     if not any(isinstance(h, _NoteHandler) for h in logger.handlers):
         logger.addHandler(_NoteHandler(logging.INFO))
         logger.setLevel(logging.INFO)
-        logger.propagate = False
 
 
 def command_group(help: str, **kwargs: Any) -> typer.Typer:
