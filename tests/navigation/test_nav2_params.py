@@ -156,5 +156,5 @@ def test_every_mistake_of_a_file_is_reported_at_once() -> None:
         "f.yaml: controller_server.ros__parameters.controller_frequncy: unknown "
         "controller_server parameter (did you mean 'controller_frequency'?)",
         "f.yaml: bt_navigator: missing 'ros__parameters' (did you mean 'ros__parameters'?)"]
-    with pytest.raises(ConfigError, match="f.yaml: global_costmap: must be a mapping"):
+    with pytest.raises(ConfigError, match=r"f\.yaml: global_costmap: must be a mapping"):
         check_nav2_data({"global_costmap": 3}, "f.yaml")
