@@ -494,7 +494,7 @@ def web() -> Iterator[Any]:
     from navstack.interfaces.web.model import DashboardModel
     from navstack.interfaces.web.server import create_app
 
-    runner_ = LiveRunner(NavStack("office", seed=1), real_time_factor=None)
+    runner_ = LiveRunner(NavStack("office", seed=1), real_time_factor=1.0)
     runner_.start()
     commander = runner_.call(NavCommander)
     model = DashboardModel(runner_, commander)
