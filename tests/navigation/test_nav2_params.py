@@ -100,8 +100,7 @@ def test_a_bringup_style_file_loads_with_notes(tmp_path: Path,
         "bt_navigator.navigate_to_pose, bt_navigator.navigate_through_poses, "
         "bt_navigator.error_code_names, controller_server.costmap_update_timeout, "
         "controller_server.precise_goal_checker, behavior_server.local_costmap_topic, "
-        "behavior_server.behavior_plugins, behavior_server.spin, behavior_server.backup, "
-        "behavior_server.wait, waypoint_follower.loop_rate, "
+        "waypoint_follower.loop_rate, "
         "waypoint_follower.waypoint_task_executor_plugin, waypoint_follower.wait_at_waypoint"]
     assert [r.levelname for r in caplog.records] == ["INFO", "WARNING", "WARNING"]
     # what the servers get: their own keys and plugin sections, nothing else
@@ -110,7 +109,10 @@ def test_a_bringup_style_file_loads_with_notes(tmp_path: Path,
                   "default_server_timeout": 20.0,
                   "navigators": ["navigate_to_pose", "navigate_through_poses"]}
     behaviors = nav.data["behavior_server"]["ros__parameters"]
-    assert behaviors == {"cycle_frequency": 10.0}
+    assert behaviors == {"cycle_frequency": 10.0, "behavior_plugins": ["spin", "backup", "wait"],
+                         "spin": {"plugin": "nav2_behaviors::Spin"},
+                         "backup": {"plugin": "nav2_behaviors::BackUp"},
+                         "wait": {"plugin": "nav2_behaviors::Wait"}}
     local = nav.data["local_costmap"]["local_costmap"]["ros__parameters"]
     # the costmap model declares use_sim_time and introspection_mode (from the wildcard)
     assert local == {"use_sim_time": True, "global_frame": "odom", "rolling_window": True,
@@ -123,7 +125,7 @@ def test_the_stack_runs_on_a_bringup_style_file(tmp_path: Path) -> None:
 
     path = tmp_path / "nav2.yaml"
     path.write_text(BRINGUP_STYLE)
-    stack = NavStack("office", nav2_params=path)
+    stack = NavStack("office", nav2_params=path).start()
     assert stack.controller.params.controller_frequency == 20.0
     assert stack.behaviors.params.cycle_frequency == 10.0
 

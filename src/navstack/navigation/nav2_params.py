@@ -42,6 +42,10 @@ from typing import TYPE_CHECKING, Any
 
 from navstack.core.config_files import ROS_PARAMETERS, load_yaml
 from navstack.core.errors import ConfigError, ConfigErrors, did_you_mean
+from navstack.navigation.costmap_filter_servers import (
+    is_info_server_section,
+    is_mask_server_section,
+)
 
 if TYPE_CHECKING:
     from navstack.runtime.config import StackConfig
@@ -56,16 +60,16 @@ RUN_SECTIONS: tuple[str, ...] = (
     "bt_navigator", "controller_server", "planner_server", "behavior_server",
     "waypoint_follower", "global_costmap", "local_costmap", "amcl")
 """Sections of the servers :class:`~navstack.interfaces.stack.NavStack` builds from the
-file (``amcl`` when it localizes with AMCL)."""
+file (``amcl`` when it localizes with AMCL).  Costmap filter info and mask servers
+(``[<prefix>_]costmap_filter_info_server``, ``[<prefix>_]filter_mask_server``) are run too;
+their sections pass through unchanged and are checked when the stack builds them
+(:mod:`navstack.navigation.costmap_filter_servers`)."""
 
 OTHER_NODES: frozenset[str] = frozenset({
     # Nav2 nodes navstack does not run, or runs without reading the file
     "map_server", "map_saver", "smoother_server", "velocity_smoother", "collision_monitor",
     "collision_detector", "docking_server", "route_server", "loopback_simulator",
-    "costmap_filter_info_server", "filter_mask_server", "keepout_filter_mask_server",
-    "keepout_costmap_filter_info_server", "speed_filter_mask_server",
-    "speed_costmap_filter_info_server", "binary_filter_mask_server",
-    "binary_costmap_filter_info_server", "recoveries_server", "opennav_docking",
+    "recoveries_server", "opennav_docking",
     "graceful_controller", "assisted_teleop", "nav2_container", "nav2_map_server",
     # helper nodes Nav2 launch files start (older distributions list them too)
     "bt_navigator_rclcpp_node", "bt_navigator_navigate_to_pose_rclcpp_node",
@@ -99,7 +103,7 @@ NAV2_ONLY_KEYS: dict[str, frozenset[str]] = {
     "planner_server": frozenset({"costmap_update_timeout", "allow_partial_planning"}),
     "behavior_server": frozenset({
         "costmap_topic", "footprint_topic", "local_costmap_topic", "global_costmap_topic",
-        "local_footprint_topic", "global_footprint_topic", "behavior_plugins",
+        "local_footprint_topic", "global_footprint_topic",
         "projection_time", "simulation_time_step", "cmd_vel_teleop"}),
     "bt_navigator": frozenset({
         "plugin_lib_names", "odom_topic", "transform_tolerance", "always_reload_bt_xml",
@@ -123,6 +127,7 @@ _PLUGIN_LISTS: dict[str, dict[str, tuple[str, ...]]] = {
                           "progress_checker_plugins": ("progress_checker",),
                           "goal_checker_plugin": (), "progress_checker_plugin": ()},
     "planner_server": {"planner_plugins": ("GridBased",)},
+    "behavior_server": {"behavior_plugins": ("spin", "backup", "drive_on_heading", "wait")},
     "global_costmap": {"plugins": ("static_layer", "obstacle_layer", "inflation_layer"),
                        "filters": ()},
     "local_costmap": {"plugins": ("static_layer", "obstacle_layer", "inflation_layer"),
@@ -133,12 +138,14 @@ _PLUGIN_LISTS: dict[str, dict[str, tuple[str, ...]]] = {
 _IGNORED_LISTS: dict[str, tuple[str, ...]] = {
     # lists whose named sections belong to Nav2 features navstack does not load
     "controller_server": ("path_handler_plugins",),
-    "behavior_server": ("behavior_plugins",),
     "waypoint_follower": ("waypoint_task_executor_plugin",),
     "bt_navigator": ("navigators",),
 }
+_UNBUILT_BEHAVIORS = ("assisted_teleop",)
+"""Nav2 behaviors navstack has no plugin for: dropped from ``behavior_plugins`` with a note
+(Nav2 Humble's stock file lists ``assisted_teleop``)."""
 _IGNORED_DEFAULTS: dict[str, tuple[str, ...]] = {
-    "behavior_server": ("spin", "backup", "drive_on_heading", "wait", "assisted_teleop"),
+    "behavior_server": _UNBUILT_BEHAVIORS,
     "waypoint_follower": ("wait_at_waypoint",),
     "bt_navigator": ("navigate_to_pose", "navigate_through_poses"),
 }
@@ -224,6 +231,12 @@ def _check_server(name: str, params: dict[str, Any], path: str, file: str,
     ignored_sections: set[str] = set(_IGNORED_DEFAULTS.get(name, ()))
     for key in _IGNORED_LISTS.get(name, ()):
         ignored_sections.update(_names(params.get(key)))
+    if name == "behavior_server" and isinstance(params.get("behavior_plugins"), list):
+        unbuilt = [b for b in params["behavior_plugins"] if b in _UNBUILT_BEHAVIORS]
+        params = {**params, "behavior_plugins": [
+            b for b in params["behavior_plugins"] if b not in _UNBUILT_BEHAVIORS]}
+        ignored.extend(f"{name}.behavior_plugins[{b}]" for b in unbuilt)
+        listed.difference_update(unbuilt)
     known = fields | nav2_only | listed
     errors: list[ConfigError] = []
     kept: dict[str, Any] = {}
@@ -262,6 +275,7 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
     ignored_keys: list[str] = []
     wildcard: dict[str, Any] = {}
     run: list[str] = []
+    filters: list[str] = []
     for name in data:
         key = str(name)
         if key == WILDCARD:
@@ -271,6 +285,8 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
                 errors.append(exc)
         elif key in RUN_SECTIONS:
             run.append(key)
+        elif is_info_server_section(key) or is_mask_server_section(key):
+            filters.append(key)
         elif key in OTHER_NODES:
             ignored_nodes.append(key)
         else:
@@ -288,6 +304,13 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
         errors.extend(server_errors)
         out[name] = ({name: {ROS_PARAMETERS: kept}} if name in NESTED
                      else {ROS_PARAMETERS: kept})
+    for name in filters:
+        try:
+            params, _ = _section(data, name, file)
+        except ConfigError as exc:
+            errors.append(exc)
+            continue
+        out[name] = {ROS_PARAMETERS: params}
     wild_unknown = [k for k in wildcard
                     if k not in ROS_NODE_KEYS and not any(
                         k in _server_fields()[s] or k in NAV2_ONLY_KEYS[s] for s in RUN_SECTIONS)]
@@ -307,7 +330,7 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
     if ignored_keys:
         notes.append(f"{file}: Nav2 parameters navstack does not use, ignored: "
                      f"{', '.join(ignored_keys)}")
-    return Nav2Params(out, file, tuple(run), (), notes)
+    return Nav2Params(out, file, (*run, *filters), (), notes)
 
 
 def _section_hint(key: str) -> str:
