@@ -32,6 +32,24 @@ def test_file_without_sections_gets_robot_limits_and_body_approach() -> None:
     assert chain.twist_mux.topics[0].topic == "/nav_vel"
 
 
+MONITOR: dict[str, Any] = {
+    "polygons": ["Stop"], "Stop": {"type": "circle", "radius": 0.3, "action_type": "stop"},
+    "observation_sources": ["scan"], "scan": {"type": "scan", "topic": "scan"}}
+
+
+def test_a_stock_nav2_monitor_feeds_the_mux() -> None:
+    """Nav2's stock file: relative topics, the monitor's output on cmd_vel (Nav2 has no
+    mux), Humble's max_points -> remapped to the mux's navigation input, min_points + 1."""
+    monitor = {**MONITOR, "cmd_vel_in_topic": "cmd_vel_smoothed",
+               "cmd_vel_out_topic": "cmd_vel",
+               "Stop": {"type": "circle", "radius": 0.3, "action_type": "stop",
+                        "max_points": 3}}
+    chain = command_chain({"collision_monitor": {"ros__parameters": monitor}}, "user.yaml",
+                          load_robot("diff_drive"))
+    assert chain.collision_monitor.cmd_vel_out_topic == "/nav_vel"
+    assert chain.collision_monitor.polygon_params["Stop"].min_points == 4
+
+
 @pytest.mark.parametrize(("nav", "message"), [
     ({"controller_server": {"ros__parameters": {"cmd_vel_topic": "/cmd_vel"}}},
      r"user.yaml: controller_server.ros__parameters.cmd_vel_topic: publishes on '/cmd_vel', "
@@ -39,9 +57,18 @@ def test_file_without_sections_gets_robot_limits_and_body_approach() -> None:
     ({"velocity_smoother": {"ros__parameters": {"cmd_vel_out_topic": "/smooth"}}},
      r"velocity_smoother.ros__parameters.cmd_vel_out_topic: '/smooth' does not feed "
      r"collision_monitor.ros__parameters.cmd_vel_in_topic \('/cmd_vel_smoothed'\)"),
-    ({"collision_monitor": {"ros__parameters": {"cmd_vel_out_topic": "/cmd_vel"}}},
-     r"collision_monitor.ros__parameters.cmd_vel_out_topic: '/cmd_vel' is not an input of "
-     r"the twist_mux"),
+    ({"collision_monitor": {"ros__parameters": {**MONITOR, "cmd_vel_out_topic": "/nav"}}},
+     r"collision_monitor.ros__parameters.cmd_vel_out_topic: '/nav' is not an input of "
+     r"the twist_mux \(/nav_vel, /key_vel, /joy_vel\)"),
+    ({"collision_monitor": {"ros__parameters": {**MONITOR, "cmd_vel_out_topic": "cmd_vel"}},
+      "twist_mux": {"ros__parameters": {"topics": {
+          "auto": {"topic": "/auto_vel", "timeout": 0.5, "priority": 10}}}}},
+     r"collision_monitor.ros__parameters.cmd_vel_out_topic: publishes on the base's "
+     r"/cmd_vel, which the twist_mux owns \(publish on one of the twist_mux inputs "
+     r"\(/auto_vel\)\)"),
+    ({"collision_monitor": {"ros__parameters": {"base_frame_id": "base_footprint"}}},
+     r"collision_monitor.ros__parameters.polygons: collision_monitor needs 'polygons' "
+     r"\(Nav2 requires it\)"),
     ({"velocity_smoother": {"ros__parameters": {"max_decel": [1.0, 0.0, -1.0]}}},
      r"velocity_smoother: Value error, max_decel vx must be <= 0"),
 ])

@@ -12,11 +12,13 @@ import pytest
 from navstack.core.msgs import (
     Bool,
     Clock,
+    CollisionMonitorState,
     ColorRGBA,
     CostmapFilterInfo,
     Float64,
     Header,
     Imu,
+    Joy,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -37,6 +39,7 @@ from navstack.core.msgs import (
     PoseWithCovariance,
     PoseWithCovarianceStamped,
     Quaternion,
+    Range,
     SpeedLimit,
     String,
     TFMessage,
@@ -120,6 +123,9 @@ SAMPLES: list[Any] = [
     GoalStatusArray((GoalStatusEntry(GoalInfo(bytes(range(16)), 4.5), 4),)),
     CostmapFilterInfo(Header(1.5, ""), 1, "/speed_filter_mask", 100.0, -1.0),
     SpeedLimit(Header(2.25, "odom"), True, 30.0),
+    Joy(Header(0.5, "joy"), (0.25, -1.0, 0.1), (0, 1, 1)),
+    Range(Header(0.75, "sonar"), 0, 0.26, 0.02, 4.0, 1.3),
+    CollisionMonitorState(3, "FootprintApproach"),
 ]
 
 

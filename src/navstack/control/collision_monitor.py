@@ -82,6 +82,22 @@ class PolygonParams(Params):
     polygon_pub_topic: str = ""
     polygon_sub_topic: str = ""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _max_points(cls, data: Any) -> Any:
+        """Nav2 Humble's ``max_points`` (the most points that do *not* trigger the zone)
+        is Iron's ``min_points - 1``; Nav2 still reads it, so do we."""
+        if isinstance(data, Mapping) and "max_points" in data:
+            data = dict(data)
+            max_points = data.pop("max_points")
+            if "min_points" in data:
+                raise ValueError("give min_points or the former max_points, not both")
+            if isinstance(max_points, int) and not isinstance(max_points, bool):
+                data["min_points"] = max_points + 1
+            else:
+                data["min_points"] = max_points  # the field's check names the type
+        return data
+
     @model_validator(mode="after")
     def _shape(self) -> PolygonParams:
         if self.type == "circle" and self.radius is None:

@@ -20,6 +20,7 @@ inputs, the mux's output ``/cmd_vel``), else a ``ConfigError`` names the keys.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +33,8 @@ from navstack.core.errors import ConfigError
 from navstack.sim.robot import RobotParams
 
 __all__ = ["BASE_TOPIC", "CommandChain", "command_chain"]
+
+log = logging.getLogger("navstack.config")
 
 BASE_TOPIC = "/cmd_vel"
 """What the base (simulator or driver) listens to."""
@@ -80,47 +83,73 @@ def _smoother_defaults(robot: RobotParams) -> dict[str, Any]:
             "max_decel": [-k.acc_lim_x, -k.acc_lim_y, -wz_acc]}
 
 
+def _abs(topic: str) -> str:
+    """A topic name as the bus resolves it (Nav2's relative names live in ``/``)."""
+    return topic if topic.startswith("/") else "/" + topic
+
+
 def command_chain(nav: Mapping[str, Any], file: str, robot: RobotParams) -> CommandChain:
-    """Resolve and check the chain of a Nav2 parameter file's data ``nav``."""
+    """Resolve and check the chain of a Nav2 parameter file's data ``nav``.
+
+    A stock Nav2 file's collision monitor publishes on ``cmd_vel`` (Nav2 has no mux): the
+    twist_mux owns the base's topic, so that output is remapped to the mux's
+    ``navigation`` input, as a launch file would remap it, with a note."""
     smoother_raw = ros_parameters(nav, "velocity_smoother", file=file)
     smoother = VelocitySmootherParams.from_mapping(
         {**_smoother_defaults(robot), **smoother_raw}, file=file,
         key_path="velocity_smoother")
-    monitor_raw = ros_parameters(nav, "collision_monitor", file=file) or DEFAULT_MONITOR
-    monitor = collision_monitor_params(monitor_raw, file=file, key_path="collision_monitor")
+    monitor_raw = dict(ros_parameters(nav, "collision_monitor", file=file) or DEFAULT_MONITOR)
+    for key in ("polygons", "observation_sources"):
+        if key not in monitor_raw:  # Nav2 declares both without a default
+            raise ConfigError(f"collision_monitor needs '{key}' (Nav2 requires it)",
+                              file=file, key_path=f"collision_monitor.ros__parameters.{key}",
+                              suggestion="see the packaged nav2_params.yaml's "
+                                         "collision_monitor section")
     mux = twist_mux_params(nav if "twist_mux" in nav else {"twist_mux": {
         "ros__parameters": DEFAULT_MUX}}, file=file)
+    out_topic = str(monitor_raw.get("cmd_vel_out_topic", "/cmd_vel"))
+    if _abs(out_topic) == BASE_TOPIC:
+        nav_input = next((e.topic for e in mux.topics if e.name == "navigation"), None)
+        if nav_input is None:
+            raise ConfigError(
+                f"publishes on the base's {BASE_TOPIC}, which the twist_mux owns",
+                file=file, key_path="collision_monitor.ros__parameters.cmd_vel_out_topic",
+                suggestion="publish on one of the twist_mux inputs "
+                           f"({', '.join(e.topic for e in mux.topics)})")
+        log.info("%s: collision_monitor.cmd_vel_out_topic %r remapped to %r, the twist_mux's "
+                 "navigation input (the mux owns %s; docs/command_path.md)",
+                 file, out_topic, nav_input, BASE_TOPIC)
+        monitor_raw["cmd_vel_out_topic"] = nav_input
+    monitor = collision_monitor_params(monitor_raw, file=file, key_path="collision_monitor")
     controller = dict(ros_parameters(nav, "controller_server", file=file))
     behavior = dict(ros_parameters(nav, "behavior_server", file=file))
+    smoother_in = _abs(smoother.cmd_vel_in_topic)
     for name, section in (("controller_server", controller), ("behavior_server", behavior)):
-        section.setdefault("cmd_vel_topic", smoother.cmd_vel_in_topic)
-        if section["cmd_vel_topic"] != smoother.cmd_vel_in_topic:
+        section.setdefault("cmd_vel_topic", smoother_in)
+        if _abs(section["cmd_vel_topic"]) != smoother_in:
             raise ConfigError(
                 f"publishes on {section['cmd_vel_topic']!r}, outside the command chain",
                 file=file, key_path=f"{name}.ros__parameters.cmd_vel_topic",
-                suggestion=f"use the velocity smoother's input {smoother.cmd_vel_in_topic!r}"
+                suggestion=f"use the velocity smoother's input {smoother_in!r}"
                            " (docs/command_path.md)")
-    links = ((smoother.cmd_vel_out_topic, monitor.cmd_vel_in_topic,
-              "velocity_smoother.ros__parameters.cmd_vel_out_topic",
-              "collision_monitor.ros__parameters.cmd_vel_in_topic"),)
-    for out, inp, out_key, in_key in links:
-        if out != inp:
-            raise ConfigError(f"{out!r} does not feed {in_key} ({inp!r})", file=file,
-                              key_path=out_key, suggestion="make them the same topic")
-    inputs = {e.topic: e.name for e in mux.topics}
-    if monitor.cmd_vel_out_topic not in inputs:
+    if _abs(smoother.cmd_vel_out_topic) != _abs(monitor.cmd_vel_in_topic):
+        raise ConfigError(
+            f"{smoother.cmd_vel_out_topic!r} does not feed collision_monitor.ros__parameters."
+            f"cmd_vel_in_topic ({monitor.cmd_vel_in_topic!r})", file=file,
+            key_path="velocity_smoother.ros__parameters.cmd_vel_out_topic",
+            suggestion="make them the same topic")
+    inputs = {_abs(e.topic): e.name for e in mux.topics}
+    if _abs(monitor.cmd_vel_out_topic) not in inputs:
         raise ConfigError(
             f"{monitor.cmd_vel_out_topic!r} is not an input of the twist_mux "
             f"({', '.join(inputs)})", file=file,
             key_path="collision_monitor.ros__parameters.cmd_vel_out_topic",
             suggestion="add it to twist_mux topics: (the navigation input)")
-    if mux.use_stamped or smoother.enable_stamped_cmd_vel:
+    if mux.use_stamped:
         raise ConfigError("the servers and the simulated base use geometry_msgs/Twist",
-                          file=file, key_path="twist_mux.ros__parameters.use_stamped"
-                          if mux.use_stamped else
-                          "velocity_smoother.ros__parameters.enable_stamped_cmd_vel",
+                          file=file, key_path="twist_mux.ros__parameters.use_stamped",
                           suggestion="set it to false in a NavStack")
-    if mux.cmd_vel_out != BASE_TOPIC:
+    if _abs(mux.cmd_vel_out) != BASE_TOPIC:
         raise ConfigError(f"the base listens on {BASE_TOPIC}, not {mux.cmd_vel_out!r}",
                           file=file, key_path="twist_mux.ros__parameters.cmd_vel_out")
     return CommandChain(smoother, monitor, mux, controller, behavior)

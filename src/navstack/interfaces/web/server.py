@@ -34,6 +34,7 @@ from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from navstack.core.errors import NavstackError
+from navstack.core.geometry import MAX_COORDINATE
 from navstack.interfaces.live_runner import LiveRunner, RunnerError
 from navstack.interfaces.web.commands import CommandRejected, GoMode, NavCommander
 from navstack.interfaces.web.model import LAYERS, DashboardModel
@@ -41,6 +42,9 @@ from navstack.interfaces.web.model import LAYERS, DashboardModel
 COMMAND_TIMEOUT = 10.0
 """Wall seconds a command may wait for the simulation thread."""
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+MAX_BODY_BYTES = 64 * 1024
+"""Largest command body accepted (a waypoint list of MAX_WAYPOINTS poses is ~10 KB)."""
 
 
 def static_dir() -> Path:
@@ -54,8 +58,8 @@ class _Body(BaseModel):
 class PoseRequest(_Body):
     """A goal or waypoint in ``map``; ``theta`` omitted: face along the direction of travel."""
 
-    x: FiniteFloat
-    y: FiniteFloat
+    x: Coordinate
+    y: Coordinate
     theta: FiniteFloat | None = None
 
 
@@ -148,10 +152,15 @@ def create_app(runner: LiveRunner, model: DashboardModel, commander: NavCommande
             return JSONResponse({"error": UNAUTHORIZED}, 401,
                                 headers={"WWW-Authenticate": "Bearer"})
         raw = await request.body()
+        if len(raw) > MAX_BODY_BYTES:
+            return JSONResponse({"error": f"body of {len(raw)} bytes is larger than "
+                                          f"{MAX_BODY_BYTES} bytes"}, 413)
         try:
             payload = json.loads(raw) if raw.strip() else None
         except json.JSONDecodeError as exc:
             return JSONResponse({"error": f"body is not JSON: {exc}"}, 422)
+        except RecursionError:
+            return JSONResponse({"error": "body is not JSON: nested too deeply"}, 422)
         status, body = await execute(name, payload)
         return JSONResponse(body, status)
 
