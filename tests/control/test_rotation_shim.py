@@ -12,6 +12,7 @@ from navstack.core.errors import ConfigError, NoValidControl
 from navstack.core.msgs import Path, Pose2D, Twist2D
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE, Costmap2D
+from navstack.costmap.footprint import polygon_cells
 
 SECTION = {"primary_controller": "nav2_regulated_pure_pursuit_controller::"
                                  "RegulatedPurePursuitController",
@@ -66,6 +67,32 @@ def test_rotation_into_a_lethal_cell_is_refused() -> None:
         c.compute(Pose2D(0.0, 0.0, 0.0), Twist2D(0.0, 0.0, 1.5), straight(math.pi / 2), cm)
     assert c.compute(Pose2D(0.0, 0.0, 0.0), Twist2D(0.0, 0.0, -1.5),
                      straight(-math.pi / 2), cm).wz < 0.0  # the other way is free
+
+
+def test_a_round_robot_turns_next_to_a_lethal_cell() -> None:
+    # lethal cells that only the rotated polygon approximation of the 0.2 m disc would
+    # touch: the disc does not move when it turns (Nav2 checks a round robot by its
+    # centre cost), so the turn is allowed
+    c = shim()
+    cm = costmap()
+    assert c.footprint is not None
+    poly = c.footprint.polygon
+    at_rest = set(zip(*polygon_cells(cm, poly), strict=True))
+    turned: set[tuple[int, int]] = set()
+    for th in np.linspace(0.0, 0.4, 9):
+        rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+        turned |= set(zip(*polygon_cells(cm, poly @ rot.T), strict=True))
+    grazing = turned - at_rest
+    assert grazing  # the polygon's vertices do sweep new cells
+    for mx, my in grazing:
+        cm.data[my, mx] = LETHAL_OBSTACLE
+    cmd = c.compute(Pose2D(0.0, 0.0, 0.0), Twist2D(), straight(math.pi / 2), cm)
+    assert c.rotating and cmd.vx == 0.0 and cmd.wz > 0.0
+    c.footprint = Footprint.from_polygon(poly)  # the same outline as a polygon robot
+    with pytest.raises(NoValidControl, match="potential collision"):
+        shim_polygon = shim()
+        shim_polygon.footprint = c.footprint
+        shim_polygon.compute(Pose2D(0.0, 0.0, 0.0), Twist2D(), straight(math.pi / 2), cm)
 
 
 def test_primary_parameters_are_validated_with_the_key() -> None:

@@ -204,8 +204,13 @@ class RotationShimController(Controller):
     def _check_rotation(self, wz: float, error: float, pose: Pose2D,
                         costmap: Costmap2D) -> None:
         """Nav2 ``isCollisionFree``: no lethal cell under the footprint along the
-        rotation, for ``simulate_ahead_time`` or until the heading is reached."""
-        if self.footprint is None or self.params.simulate_ahead_time <= 0.0 or wz == 0.0:
+        rotation, for ``simulate_ahead_time`` or until the heading is reached.  A round
+        robot (footprint from ``robot_radius``) covers the same disc at every heading, so
+        turning in place cannot hit anything; its polygon approximation would otherwise
+        refuse a turn when a rotated vertex grazes a lethal cell the disc already touches
+        (Nav2 checks a round robot by the cost at its centre, which a turn leaves as is)."""
+        if (self.footprint is None or self.footprint.radius is not None
+                or self.params.simulate_ahead_time <= 0.0 or wz == 0.0):
             return
         turn = min(abs(wz) * self.params.simulate_ahead_time, abs(error))
         steps = max(1, math.ceil(turn / 0.05))
