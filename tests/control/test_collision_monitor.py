@@ -55,6 +55,32 @@ def test_touching_obstacle_stops_and_moving_away_is_allowed() -> None:
     assert zone.safe_velocity(Twist2D(-0.2, 0.0, 0.0), pts) is None
 
 
+def test_a_point_already_inside_stops_only_motion_that_takes_it_deeper() -> None:
+    # a zone padded to 0.35 m around the body; a door frame 0.3 m to the left is inside
+    zone = ZonePolygon("Approach", PolygonParams(
+        type="circle", radius=0.35, action_type="approach", time_before_collision=1.2,
+        simulation_time_step=0.1, min_points=1))
+    beside = np.array([[0.0, 0.3]])
+    assert zone.safe_velocity(Twist2D(0.3, 0.0, 0.0), beside) is None  # along it
+    assert zone.safe_velocity(Twist2D(0.3, 0.0, 0.8), beside) is None  # arcs around it
+    ahead_left = np.array([[0.15, 0.26]])  # 0.3 m away, 60 degrees left
+    assert zone.safe_velocity(Twist2D(0.0, 0.0, 0.8), ahead_left) is None  # turning: same
+    assert zone.safe_velocity(Twist2D(0.3, 0.0, 0.0), ahead_left) == Twist2D()  # closer
+    assert zone.safe_velocity(Twist2D(-0.2, 0.0, 0.0), ahead_left) is None  # away
+    # a wall ahead, already inside: driving at it stops, backing away does not
+    ahead = cluster(0.3, 0.0)
+    assert zone.safe_velocity(Twist2D(0.2, 0.0, 0.0), ahead) == Twist2D()
+    assert zone.safe_velocity(Twist2D(-0.2, 0.0, 0.0), ahead) is None
+    # a polygon zone measures depth to its outline
+    square = ZonePolygon("Square", PolygonParams(
+        type="polygon", points=[[0.4, 0.4], [0.4, -0.4], [-0.4, -0.4], [-0.4, 0.4]],
+        action_type="approach", time_before_collision=1.0, min_points=1))
+    np.testing.assert_allclose(square.depth(np.array([[0.3, 0.0], [0.0, 0.1], [0.5, 0.0]])),
+                               [0.1, 0.3, 0.0])
+    side = np.array([[0.0, 0.35]])  # 0.05 m deep on the left
+    assert square.safe_velocity(Twist2D(0.3, 0.0, 0.0), side) is None  # along it
+
+
 def test_arc_motion_is_simulated_exactly() -> None:
     zone = approach(tbc=2.0)
     # (1, 1) lies on the 1 m radius left arc: reached at a quarter turn, t = pi/2,

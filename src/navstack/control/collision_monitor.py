@@ -20,10 +20,12 @@ Sources that are stale stop the robot (:meth:`CollisionMonitor.process` with
 ``invalid_source``) -- Nav2 Jazzy's rule for a non-zero ``source_timeout``.
 
 navstack departure for ``approach``: only the *simulated* poses are checked, not the
-current one (Nav2 returns 0, a stop, when the polygon already holds points at t = 0).  A
-robot whose polygon touches a point can still drive or turn away from it; motion that
-keeps or brings the point inside is still stopped.  Without this a robot that ended up
-within its approach polygon of a wall could neither turn nor back away.
+current one (Nav2 returns 0, a stop, when the polygon already holds points at t = 0), and
+a point that is already inside the polygon counts at a simulated pose only if the motion
+takes it deeper (its distance to the outline grows by more than :data:`DEPTH_SLACK`).  A
+robot whose polygon holds a point can still drive along it or away from it; motion that
+brings a point in, or closer, is stopped.  Without this a robot within its approach
+polygon of a wall -- a padded footprint in a door -- could neither move on nor back away.
 """
 
 from __future__ import annotations
@@ -48,6 +50,10 @@ __all__ = ["ActionType", "CollisionMonitor", "CollisionMonitorParams", "MonitorR
 
 FloatArray = NDArray[np.float64]
 
+DEPTH_SLACK = 0.005
+"""[m] how much deeper a point already inside an approach polygon may get before it
+counts (sensor noise: the lidar's range noise is ~0.01 m)."""
+
 
 class ActionType(IntEnum):
     """``nav2_msgs/CollisionMonitorState`` action types."""
@@ -69,8 +75,9 @@ class PolygonParams(Params):
     radius: float | None = Field(None, gt=0.0)
     """[m] (``type: circle``)."""
     footprint_topic: str = ""
-    """Nav2: take the polygon from the costmap's published footprint.  navstack: the
-    robot's body footprint (``type: polygon`` without ``points``)."""
+    """Nav2: take the polygon from the costmap's published footprint (the robot's outline
+    padded by the costmap's ``footprint_padding``).  navstack: that padded footprint, given
+    to the monitor when the stack is built (``type: polygon`` without ``points``)."""
     min_points: int = Field(4, ge=1)
     slowdown_ratio: float = Field(0.5, ge=0.0, le=1.0)
     linear_limit: float = Field(0.5, ge=0.0)
@@ -224,9 +231,28 @@ class ZonePolygon:
     def points_inside(self, points_base: FloatArray) -> int:
         return int(np.count_nonzero(self.inside(points_base)))
 
+    def depth(self, points_local: FloatArray) -> FloatArray:
+        """Distance [m] of each ``(N, 2)`` point (zone frame) inside the zone to its
+        outline; 0 for points outside."""
+        if len(points_local) == 0:
+            return np.zeros(0)
+        if self.circle is not None:
+            return np.maximum(self.circle - np.hypot(points_local[:, 0], points_local[:, 1]),
+                              0.0)
+        a = self.vertices
+        b = np.roll(a, -1, axis=0)
+        ab = b - a  # (E, 2) edges
+        ap = points_local[:, None, :] - a[None, :, :]  # (N, E, 2)
+        u = np.clip(np.sum(ap * ab, axis=2) / np.maximum(np.sum(ab * ab, axis=1), 1e-18),
+                    0.0, 1.0)
+        closest = a[None, :, :] + u[:, :, None] * ab[None, :, :]
+        d = np.min(np.hypot(*(points_local[:, None, :] - closest).transpose(2, 0, 1)), axis=1)
+        return np.where(self.inside(points_local), d, 0.0)
+
     def collision_time(self, cmd: Twist2D, points_base: FloatArray) -> float | None:
         """Start time [s] of the first simulation step after which the moved zone holds
-        ``min_points`` points (``None``: none within ``time_before_collision``)."""
+        ``min_points`` points that entered it or went deeper (``None``: none within
+        ``time_before_collision``; module docstring)."""
         p = self.params
         if len(points_base) == 0 or (cmd.vx == 0.0 and cmd.vy == 0.0 and cmd.wz == 0.0):
             return None
@@ -235,6 +261,7 @@ class ZonePolygon:
         pts = points_base[d <= reach]
         if len(pts) < p.min_points:
             return None
+        depth0 = self.depth(pts)
         for t in self.times:  # few steps; each test is vectorised over points
             th = cmd.wz * t
             if abs(cmd.wz) < 1e-9:
@@ -250,7 +277,12 @@ class ZonePolygon:
             cs, sn = math.cos(th), math.sin(th)
             dx, dy = dx[near], dy[near]
             local = np.column_stack((cs * dx + sn * dy, -sn * dx + cs * dy))
-            if self.points_inside(local) >= p.min_points:
+            inside = self.inside(local)
+            if int(np.count_nonzero(inside)) < p.min_points:
+                continue
+            was_in = depth0[near] > 0.0
+            counted = inside & (~was_in | (self.depth(local) > depth0[near] + DEPTH_SLACK))
+            if int(np.count_nonzero(counted)) >= p.min_points:
                 return float(t - p.simulation_time_step)
         return None
 
