@@ -75,3 +75,18 @@ def test_a_stock_nav2_monitor_feeds_the_mux() -> None:
 def test_broken_chains_are_config_errors(nav: dict[str, Any], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         command_chain(nav, "user.yaml", load_robot("diff_drive"))
+
+
+def test_a_partial_file_merged_over_the_packaged_one_keeps_the_robot_limits() -> None:
+    # the golf cart's Nav2 file has no velocity_smoother section: the packaged one is
+    # merged in, and its limits come from the golf cart's profile, not the diff drive's
+    from navstack.interfaces.demo import demo_setup
+    from navstack.navigation.nav2_params import load_nav2_params
+
+    path = demo_setup("golf_cart").nav2_params
+    assert path is not None
+    nav = load_nav2_params(path)
+    assert "velocity_smoother" in nav.from_defaults
+    chain = command_chain(nav.data, nav.file, load_robot("golf_cart"))
+    assert chain.velocity_smoother.max_velocity == (2.5, 0.0, 1.0)
+    assert chain.velocity_smoother.smoothing_frequency == 20.0  # the packaged section's
