@@ -7,8 +7,10 @@ with a literal name -- and compared with what its layer may import:
 
 * the algorithm packages (costmap, planning, control, localization, mapping, perception,
   geo) import only ``core`` and each other: no runtime/bus, no node layer, nothing above;
-* the node layer (``nodes``) adapts algorithms to the bus: core, runtime and algorithms,
-  nothing above it and not ``navigation`` beside it;
+* the node layer (``nodes``) adapts algorithms and vehicle links to the bus: core,
+  runtime, algorithms and drivers, nothing above it and not ``navigation`` beside it;
+* ``drivers`` is pure protocol and transport code: only ``core`` (no bus, no algorithm,
+  no simulator, nothing above);
 * ``core`` imports only itself.
 
 A violation fails naming the module, the line and the import.
@@ -32,7 +34,9 @@ ABOVE_ALGORITHMS = ("runtime", "nodes", "navigation", "interfaces", "benchmarks"
                     "drivers", "missions", "app")
 RULES: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(ALGORITHMS, ABOVE_ALGORITHMS),
-    "nodes": ("navigation", "interfaces", "benchmarks", "sim", "drivers", "missions", "app"),
+    "nodes": ("navigation", "interfaces", "benchmarks", "sim", "missions", "app"),
+    "drivers": (*ALGORITHMS, "runtime", "nodes", "navigation", "interfaces", "benchmarks", "sim",
+                "missions", "app"),
     "core": (*ALGORITHMS, *ABOVE_ALGORITHMS),
 }
 # names ``navstack/__init__.py`` resolves lazily, and the layer they come from
@@ -110,7 +114,7 @@ def test_package_imports_only_from_below(package: str) -> None:
 
 
 def test_every_algorithm_package_exists_and_is_checked() -> None:
-    for package in (*ALGORITHMS, "nodes", "core"):
+    for package in (*ALGORITHMS, "nodes", "drivers", "core"):
         assert (SRC / package / "__init__.py").is_file(), package
         assert any((SRC / package).rglob("*.py"))
 

@@ -4,6 +4,12 @@ Field names follow the ROS 2 message of the same name; arrays are numpy; time is
 seconds.  ``runtime/`` converts to ROS time and CDR at the boundary.
 """
 
+from navstack.core.msgs.diagnostic_msgs import (
+    DiagnosticArray,
+    DiagnosticStatus,
+    KeyValue,
+    NavigationHold,
+)
 from navstack.core.msgs.geometry_msgs import (
     Point,
     Polygon,
@@ -26,6 +32,7 @@ from navstack.core.msgs.geometry_msgs import (
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
+    JointState,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -37,6 +44,8 @@ from navstack.core.msgs.sensor_msgs import (
     Odometry,
     Path,
     PointCloud,
+    PointCloud2,
+    PointField,
     TFMessage,
 )
 from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
@@ -45,9 +54,13 @@ __all__ = [
     "Bool",
     "Clock",
     "ColorRGBA",
+    "DiagnosticArray",
+    "DiagnosticStatus",
     "Float64",
     "Header",
     "Imu",
+    "JointState",
+    "KeyValue",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -55,11 +68,14 @@ __all__ = [
     "MarkerArray",
     "NavSatFix",
     "NavSatStatus",
+    "NavigationHold",
     "OccupancyGrid",
     "Odometry",
     "Path",
     "Point",
     "PointCloud",
+    "PointCloud2",
+    "PointField",
     "Polygon",
     "Pose",
     "Pose2D",
