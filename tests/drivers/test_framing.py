@@ -7,7 +7,7 @@ from pyubx2 import GET, UBXMessage
 
 from navstack.drivers.framing import DatagramFramer, FixedFramer, GnssFramer, LineFramer
 from navstack.drivers.golf_cart import decode_cart_command, encode_cart_command
-from navstack.drivers.vehicles import _plausible_cart_command
+from navstack.drivers.golf_cart import plausible_cart_command as _plausible_cart_command
 
 
 def test_line_framer_splits_and_drops_overlong() -> None:

@@ -39,7 +39,7 @@ from navstack.drivers.errors import EncodeError, MalformedPacket
 
 __all__ = ["CART_COMMAND", "MAX_SPEED_KMH", "MAX_STEERING", "STEPS_PER_RAD", "STOP_PACKET",
            "CartCommand", "SteeringMode", "cart_steering", "decode_cart_command",
-           "encode_cart_command", "steering_to_steps"]
+           "encode_cart_command", "plausible_cart_command", "steering_to_steps"]
 
 CART_COMMAND = struct.Struct("<fi")
 STEPS_PER_RAD = 497.84
@@ -132,3 +132,12 @@ def decode_cart_command(data: bytes) -> CartCommand:
         raise MalformedPacket(CODEC, f"steering target {steps} steps beyond +-{MAX_STEPS} "
                               f"(0.74 rad)", data)
     return CartCommand(float(speed_kmh), int(steps))
+
+
+def plausible_cart_command(window: bytes) -> bool:
+    """Whether 8 bytes decode as a cart command (the framer's resynchronisation test)."""
+    try:
+        decode_cart_command(window)
+    except MalformedPacket:
+        return False
+    return True

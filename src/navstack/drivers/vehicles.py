@@ -27,7 +27,6 @@ import numpy as np
 from navstack.core.msgs import Header, NavSatFix, NavSatStatus
 from navstack.drivers import cart_sensors, golf_cart, rover_telemetry, rover_vcu
 from navstack.drivers.config import AffineCalibration, LinkParams, VehicleConfig
-from navstack.drivers.errors import MalformedPacket
 from navstack.drivers.framing import (
     DatagramFramer,
     FixedFramer,
@@ -182,7 +181,7 @@ class GolfCartProtocol(VehicleProtocol):
 
     def _framer(self, link: str) -> Framer:
         if link == "steering":
-            return FixedFramer(golf_cart.CART_COMMAND.size, _plausible_cart_command)
+            return FixedFramer(golf_cart.CART_COMMAND.size, golf_cart.plausible_cart_command)
         return LineFramer(cart_sensors.MAX_LINE)
 
     def command(self, vx: float, wz: float) -> bytes:
@@ -214,14 +213,6 @@ class GolfCartProtocol(VehicleProtocol):
         wheel = speed / cart_sensors.WHEEL_RADIUS
         return [WheelOdometry(t, speed, s.gyro[2], {"rear_wheel_joint": wheel}),
                 ImuSample(t, accel, s.gyro, (mag[0] * 1e-6, mag[1] * 1e-6, mag[2] * 1e-6))]
-
-
-def _plausible_cart_command(window: bytes) -> bool:
-    try:
-        golf_cart.decode_cart_command(window)
-    except MalformedPacket:
-        return False
-    return True
 
 
 def make_protocol(config: VehicleConfig) -> VehicleProtocol:

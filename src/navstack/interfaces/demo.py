@@ -41,7 +41,7 @@ def default_waypoints_path() -> FsPath:
 class DemoSetup:
     """What ``navstack demo --robot NAME`` runs when world, waypoints and Nav2 parameters
     are not given: the flagship office mission for indoor robots, the campus route with
-    Hybrid-A* + MPPI for the golf cart."""
+    Hybrid-A* + MPPI for the golf cart, a campus route with NavFn + DWB for the rover."""
 
     world: str
     waypoints: FsPath
@@ -52,6 +52,9 @@ def demo_setup(robot: str) -> DemoSetup:
     if robot == "golf_cart":
         return DemoSetup("campus", _config("campus_waypoints.yaml"),
                          _config("golf_cart_nav2_params.yaml"))
+    if robot == "rover":
+        return DemoSetup("campus", _config("rover_campus_waypoints.yaml"),
+                         _config("rover_nav2_params.yaml"))
     return DemoSetup("office", default_waypoints_path(), None)
 
 

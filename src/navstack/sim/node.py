@@ -13,9 +13,18 @@ does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/g
 (the true pose in ``map``), and when enabled ``/gps/fix`` (NavSatFix), ``/gps/vel`` (ENU
 velocity, TwistWithCovarianceStamped) and ``/imu/mag`` (MagneticField) -- topic names
 from the profile.  Each sensor runs on its own timer at its configured rate.
+
+``wired`` names the parts that talk to the stack through a vehicle link instead
+(hardware-in-the-loop: :mod:`navstack.sim.vehicles`): ``"base"`` -- the robot takes its
+motion from the simulated vehicle's firmware, not from ``/cmd_vel``; ``"odometry"``,
+``"imu"``, ``"gnss"``, ``"magnetometer"`` -- the vehicle samples them and sends them over
+the wire, so the node does not publish them (nor, without its own odometry,
+``odom -> base_link`` or the perfect ``map -> odom``).  Static mounts are still published.
 """
 
 from __future__ import annotations
+
+from collections.abc import Collection
 
 from navstack.core.msgs import (
     Clock,
@@ -43,8 +52,14 @@ class SimulatorNode(Node):
     """Runs :class:`Simulator` physics at ``physics_rate_hz`` and publishes its sensors."""
 
     def __init__(self, runtime: Runtime, sim: Simulator, physics_rate_hz: float = 50.0,
-                 perfect_localization: bool = True, name: str = "simulator") -> None:
+                 perfect_localization: bool = True, name: str = "simulator",
+                 wired: Collection[str] = ()) -> None:
         super().__init__(name, runtime)
+        unknown = set(wired) - WIRED_PARTS
+        if unknown:
+            raise ValueError(f"wired: unknown {sorted(unknown)}; choose from "
+                             f"{sorted(WIRED_PARTS)}")
+        self.wired = frozenset(wired)
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
@@ -67,23 +82,24 @@ class SimulatorNode(Node):
         self.pub_scan = self.create_publisher("/scan", LaserScan, SENSOR_DATA)
         self.pub_imu = self.create_publisher("/imu", Imu, SENSOR_DATA)
         self.pub_truth = self.create_publisher("/ground_truth", Odometry, QoS(depth=10))
-        self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
+        if "base" not in self.wired:
+            self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
         sensors = self.sim.robot.sensors
         if self.sim.lidar is not None:
             self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
-        if self.sim.odometry is not None:
+        if self.sim.odometry is not None and "odometry" not in self.wired:
             self.create_timer(1.0 / sensors.odometry.rate_hz, self._odom)
-        if self.sim.imu is not None:
+        if self.sim.imu is not None and "imu" not in self.wired:
             self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
         if sensors.ground_truth.enabled:
             self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
-        if self.sim.gnss is not None:
+        if self.sim.gnss is not None and "gnss" not in self.wired:
             self.pub_fix = self.create_publisher(_topic(sensors.gnss.topic), NavSatFix,
                                                  SENSOR_DATA)
             self.pub_gps_vel = self.create_publisher(_topic(sensors.gnss.velocity_topic),
                                                      TwistWithCovarianceStamped, SENSOR_DATA)
             self.create_timer(1.0 / sensors.gnss.rate_hz, self._gnss)
-        if self.sim.magnetometer is not None:
+        if self.sim.magnetometer is not None and "magnetometer" not in self.wired:
             self.pub_mag = self.create_publisher(_topic(sensors.magnetometer.topic),
                                                  MagneticField, SENSOR_DATA)
             self.create_timer(1.0 / sensors.magnetometer.rate_hz, self._mag)
@@ -102,7 +118,8 @@ class SimulatorNode(Node):
                                           sensors.magnetometer.mount))
         self.pub_tf_static.publish(TFMessage(tuple(static)))
         self._last_imu_t = self.now
-        self._odom()
+        if "odometry" not in self.wired:
+            self._odom()
 
     def _static_tf(self, frame: str, mount: object) -> TransformStamped:
         m = mount
@@ -184,6 +201,9 @@ class SimulatorNode(Node):
     def _truth(self) -> None:
         self.advance()
         self.pub_truth.publish(self.sim.truth(self.now))
+
+
+WIRED_PARTS = frozenset({"base", "odometry", "imu", "gnss", "magnetometer"})
 
 
 def _topic(name: str) -> str:
