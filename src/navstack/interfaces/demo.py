@@ -5,6 +5,11 @@ corridor, costmaps, NavFn planner, DWB controller, BT navigator with recoveries)
 one NavigateToPose goal per waypoint in the order of the waypoint file, shows live
 progress, and writes ``report.json``, ``report.md`` and ``trajectory.png`` to ``--out``.
 Success means every goal SUCCEEDED and the robot never touched anything.
+
+``link`` ("udp" for the rover, "serial" for the golf cart) runs the same mission through
+the robot's vehicle link: the stack drives a simulated vehicle over a real socket / pty
+(:mod:`navstack.interfaces.hil`), and the report adds the link's figures (command
+latency, packets, malformed, losses).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 
 from navstack.core.msgs import Path, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
+from navstack.interfaces.hil import LinkKind, hil_stack
 from navstack.interfaces.plots import plot_trajectory
 from navstack.interfaces.stack import NavStack
 from navstack.navigation.waypoint_follower import load_waypoints
@@ -107,7 +113,8 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
 def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
              show_progress: bool = True, record: bool = False,
-             attach: Callable[[NavStack], Callable[[], None]] | None = None) -> dict[str, Any]:
+             attach: Callable[[NavStack], Callable[[], None]] | None = None,
+             link: LinkKind | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
@@ -120,7 +127,16 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     world = world or setup.world
     waypoints = load_waypoints(waypoints_file or setup.waypoints)
     wall0 = time.perf_counter()
-    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed).start()
+    vehicle_link = None
+    if link is not None:
+        stack, vehicle_link = hil_stack(world, robot, setup.nav2_params, seed, link)
+        try:
+            stack.start()
+        except BaseException:
+            vehicle_link.close()
+            raise
+    else:
+        stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder
@@ -141,6 +157,9 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
         bag_summary = bag.close() if bag is not None else None
         if detach is not None:
             detach()
+        link_report = vehicle_link.report() if vehicle_link is not None else None
+        if vehicle_link is not None:
+            vehicle_link.close()
     live.close()
     wall = time.perf_counter() - wall0
     traj = recorder.array()
@@ -161,6 +180,10 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     }
     if bag_summary is not None:
         report["bag"] = {"path": str(bag_summary.path), "messages": bag_summary.messages}
+    if link_report is not None:
+        report["link"] = link_report
+    np.savetxt(out / "trajectory.csv", traj, delimiter=",", header="t,x,y,theta", fmt="%.4f",
+               comments="")
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(_markdown(report))
     goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}

@@ -134,9 +134,10 @@ class HilBridgeNode(Node):
         target = self._consumed_target + 1
         if far.wait_consumed(target, self.sync_timeout):
             self._consumed_target = target
-            applied, decoded = far.consumed_walls[-1]
-            if applied:
-                self.latencies.append(decoded - wall)
+            if far.consumed_walls:  # empty if a late packet from a timed-out wait counted
+                applied, decoded = far.consumed_walls[-1]
+                if applied:
+                    self.latencies.append(decoded - wall)
         else:
             self.sync_timeouts += 1
             self._consumed_target = far.packets_consumed
