@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Literal
 
@@ -137,6 +138,17 @@ class VehicleLink:
     def ready(self, runtime: Runtime) -> bool:
         """Up once the driver's odometry and the bridge's ``map -> odom`` are in TF."""
         return runtime.tf.can_transform("map", "base_link")
+
+    def wait_connected(self, timeout: float = 5.0) -> bool:
+        """Block (wall time) until every driver link is open again -- after
+        ``far_side.restart()``, so a test resumes at a reproducible simulated time."""
+        deadline = time.monotonic() + timeout
+        while self.driver is not None and not all(
+                t.is_open for t in self.driver.transports.values()):
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.005)
+        return True
 
     def close(self) -> None:
         """Stop the vehicle and the driver's links; remove the ptys."""
