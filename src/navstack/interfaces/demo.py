@@ -18,7 +18,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path as FsPath
@@ -114,29 +114,33 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
              show_progress: bool = True, record: bool = False,
              attach: Callable[[NavStack], Callable[[], None]] | None = None,
-             link: LinkKind | None = None) -> dict[str, Any]:
+             link: LinkKind | None = None,
+             nav2_params: FsPath | Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
     default topics, ground truth and goals; replaces a bag left there by an earlier run).
     ``attach``: called with the stack once it is built (live viewers: web dashboard,
     Foxglove); returns the function that detaches them when the mission ends.
+    ``link``: run through the robot's vehicle link (module docstring); ``nav2_params``:
+    instead of the robot's packaged Nav2 file.
     """
     out.mkdir(parents=True, exist_ok=True)
     setup = demo_setup(robot)
     world = world or setup.world
     waypoints = load_waypoints(waypoints_file or setup.waypoints)
+    params = setup.nav2_params if nav2_params is None else nav2_params
     wall0 = time.perf_counter()
     vehicle_link = None
     if link is not None:
-        stack, vehicle_link = hil_stack(world, robot, setup.nav2_params, seed, link)
+        stack, vehicle_link = hil_stack(world, robot, params, seed, link)
         try:
             stack.start()
         except BaseException:
             vehicle_link.close()
             raise
     else:
-        stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed).start()
+        stack = NavStack(world, robot, nav2_params=params, seed=seed).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder

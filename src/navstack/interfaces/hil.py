@@ -24,6 +24,7 @@ from __future__ import annotations
 import shutil
 import tempfile
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -183,7 +184,8 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def hil_stack(world: str, robot: str, nav2_params: str | Path | None, seed: int,
+def hil_stack(world: str, robot: str, nav2_params: str | Path | Mapping[str, Any] | None,
+              seed: int,
               link: LinkKind | None = None, **stack_kwargs: Any) -> tuple[Any, VehicleLink]:
     """A NavStack whose robot is driven through its vehicle link (not started)."""
     from navstack.interfaces.stack import NavStack

@@ -139,15 +139,22 @@ class CartMega:
     seq: int = 0
     wheel: WheelPulseSpeed = field(default_factory=WheelPulseSpeed)
     speed: float = 0.0
+    pulse_speed: bool = False
 
     @property
     def pulses(self) -> int:
         return math.floor(self.distance / PULSE_DISTANCE)
 
     def roll(self, wheel_speed: float, dt: float, now: float) -> float:
-        """The wheel turned at ``wheel_speed`` [m/s] for ``dt``; the pulse speed now."""
+        """The wheel turned at ``wheel_speed`` [m/s] for ``dt``; the speed reported.
+
+        ``pulse_speed`` picks the Arduino's pulse-period estimate (4 pulses/rev: coarse
+        and late at low speed); otherwise the line carries the simulated wheel
+        odometry's speed, so a run through the wire sees the same odometry as a run in
+        process (the comparison the hardware-in-the-loop acceptance makes)."""
         self.distance += abs(wheel_speed) * dt
-        self.speed = self.wheel.update(now, self.pulses)
+        pulse = self.wheel.update(now, self.pulses)
+        self.speed = pulse if self.pulse_speed else abs(wheel_speed)
         return self.speed
 
     def line(self, now: float, accel: tuple[float, float, float],
