@@ -119,10 +119,17 @@ class HilBridgeNode(Node):
     def on_configure(self) -> None:
         self.pub_tf = self.create_publisher("/tf", TFMessage, QoS(depth=100))
         self.create_timer(self.dt, self._tick)
-        for source in self.vehicle.telemetry():
-            self.create_timer(source.period, self._telemetry(source))
+        self._streams = [self._telemetry(source) for source in self.vehicle.telemetry()]
+        for source, stream in zip(self.vehicle.telemetry(), self._streams, strict=True):
+            self.create_timer(source.period, stream)
         if self.perfect_localization:
             self.create_subscription("/odom", Odometry, self._on_odom, QoS(depth=10))
+
+    def on_activate(self) -> None:
+        # the first samples at activation, as the simulator node publishes its first
+        # odometry then: navigation starts at the same instant as in process
+        for stream in self._streams:
+            stream()
 
     # --- commands ------------------------------------------------------------------------
     def on_command_written(self, packet: bytes, wall: float) -> None:
