@@ -9,7 +9,8 @@ Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
 (nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link at the odometry
 rate, and map -> odom when ``perfect_localization`` is on so navigation can run before
 localization exists: at 10 Hz, future-dated by 0.1 s as AMCL's ``transform_tolerance``
-does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
+does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu``, ``/ground_truth``, the
+3-D lidar's PointCloud2 when the profile enables one (``/velodyne_points``),
 (the true pose in ``map``), and when enabled ``/gps/fix`` (NavSatFix), ``/gps/vel`` (ENU
 velocity, TwistWithCovarianceStamped) and ``/imu/mag`` (MagneticField) -- topic names
 from the profile.  Each sensor runs on its own timer at its configured rate.
@@ -34,6 +35,7 @@ from navstack.core.msgs import (
     MagneticField,
     NavSatFix,
     Odometry,
+    PointCloud2,
     Pose2D,
     TFMessage,
     Transform,
@@ -87,6 +89,10 @@ class SimulatorNode(Node):
         sensors = self.sim.robot.sensors
         if self.sim.lidar is not None:
             self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
+        if self.sim.lidar3d is not None:
+            self.pub_cloud = self.create_publisher(_topic(sensors.lidar3d.topic), PointCloud2,
+                                                   SENSOR_DATA)
+            self.create_timer(1.0 / sensors.lidar3d.rate_hz, self._cloud)
         if self.sim.odometry is not None and "odometry" not in self.wired:
             self.create_timer(1.0 / sensors.odometry.rate_hz, self._odom)
         if self.sim.imu is not None and "imu" not in self.wired:
@@ -111,6 +117,8 @@ class SimulatorNode(Node):
             static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
         if self.sim.imu is not None:
             static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
+        if self.sim.lidar3d is not None:
+            static.append(self._static_tf(sensors.lidar3d.frame_id, sensors.lidar3d.mount))
         if self.sim.gnss is not None:
             static.append(self._static_tf(sensors.gnss.frame_id, sensors.gnss.mount))
         if self.sim.magnetometer is not None:
@@ -150,6 +158,12 @@ class SimulatorNode(Node):
         if scan is not None:
             self.scans_published += 1
             self.pub_scan.publish(scan)
+
+    def _cloud(self) -> None:
+        self.advance()
+        cloud = self.sim.point_cloud(self.now)
+        if cloud is not None:
+            self.pub_cloud.publish(cloud)
 
     def _odom(self) -> None:
         self.advance()
