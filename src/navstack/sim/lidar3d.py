@@ -66,7 +66,7 @@ def _cloud_kernel(occ: NDArray[np.bool_], heights: FloatArray, origin_x: float,
                     best[k] = tm
         # the grid walk (only inside the grid; outside is free space)
         if 0.0 <= gx < w and 0.0 <= gy < h_rows:
-            ix, iy = int(math.floor(gx)), int(math.floor(gy))
+            ix, iy = math.floor(gx), math.floor(gy)
             if dx > 0.0:
                 sx, tmx, tdx = 1, (ix + 1 - gx) / dx, 1.0 / dx
             elif dx < 0.0:

@@ -30,11 +30,11 @@ from numpy.typing import NDArray
 from navstack.core.errors import InvalidMessage
 from navstack.core.msgs import (
     Imu,
-    PointCloud2,
     LaserScan,
     MagneticField,
     NavSatFix,
     Odometry,
+    PointCloud2,
     Pose2D,
     Twist2D,
     TwistWithCovarianceStamped,
