@@ -112,8 +112,8 @@ def test_unknown_robot_name_lists_known() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_robot("turtlebott")
     assert str(err.value) == ("unknown robot 'turtlebott' (did you mean 'turtlebot'?); "
-                              "known: diff_drive, golf_cart, omni, turtlebot")
-    assert err.value.known == ["diff_drive", "golf_cart", "omni", "turtlebot"]
+                              "known: diff_drive, golf_cart, omni, rover, turtlebot")
+    assert err.value.known == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot"]
     with pytest.raises(ConfigError, match="robot profile file not found"):
         load_robot("/nonexistent/robot.yaml")
 
