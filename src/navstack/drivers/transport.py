@@ -312,7 +312,7 @@ class UdpTransport(Transport):
         sock.settimeout(timeout)
         try:
             first = sock.recv(65535)
-        except TimeoutError:
+        except (TimeoutError, BlockingIOError):  # nothing within the timeout (or at once)
             return []
         except ConnectionRefusedError:  # ICMP port unreachable from an earlier send
             return []
