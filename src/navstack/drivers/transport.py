@@ -215,11 +215,15 @@ class Transport(ABC):
             self.backoff.failed(time.monotonic())
 
     def write(self, data: bytes) -> bool:
-        """Send ``data``; ``False`` when the link is down (counted, never raised)."""
+        """Send ``data``; ``False`` when the link is down or the write would block
+        (counted, never raised, never blocking for long)."""
         if not self._ensure_open():
             return False
         try:
             self._write(data)
+        except (BlockingIOError, serial.SerialTimeoutException) as exc:
+            self.stats.io_error(f"{self.name}: write dropped: {exc}")  # link stays up
+            return False
         except (OSError, serial.SerialException, ValueError) as exc:
             self._failed(exc)
             return False
@@ -339,7 +343,7 @@ class SerialTransport(Transport):
     def _open_device(self) -> None:
         try:
             self._serial = serial.serial_for_url(self.port, baudrate=self.baudrate, timeout=0.05,
-                                                 write_timeout=0.5)
+                                                 write_timeout=0.05)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkUnavailable(f"{self.name}: cannot open serial port {self.port!r} at "
                                   f"{self.baudrate} baud: {exc}; check the device exists and "
@@ -352,9 +356,9 @@ class SerialTransport(Transport):
             self._serial = None
 
     def _write(self, data: bytes) -> None:
+        # no flush(): tcdrain would wait, without a timeout, for the far end to read
         assert self._serial is not None
         self._serial.write(data)
-        self._serial.flush()
 
     def _read(self, timeout: float) -> list[bytes]:
         ser = self._serial

@@ -1,6 +1,7 @@
 """Pseudo-terminal pairs: the driver opens the slave by a stable path, like a USB serial
 device; the simulated vehicle holds the master.
 
+The master is non-blocking: a vehicle never stalls because the driver is not reading.
 The path is a symlink (``/tmp/.../ttyCART``) to the slave (``/dev/pts/N``), as udev's
 ``/dev/serial/by-id/...`` links are: a vehicle that "reboots" gets a new pty and the
 link is re-pointed, and the driver's reconnect finds it under the same name.  The slave
@@ -50,6 +51,7 @@ class PtyMasterTransport(Transport):
     def _open_device(self) -> None:
         try:
             self._fd = open_pty_link(self.link)
+            os.set_blocking(self._fd, False)
         except OSError as exc:
             raise LinkUnavailable(f"{self.name}: cannot create a pty at {self.link}: {exc}"
                                   ) from None
@@ -61,11 +63,13 @@ class PtyMasterTransport(Transport):
             self._fd = None
 
     def _write(self, data: bytes) -> None:
+        """Write without ever blocking: a serial line has no flow control, so when the
+        reader does not keep up (or has not opened the port) the bytes are lost --
+        :class:`BlockingIOError` here, counted by the transport as an I/O error."""
         assert self._fd is not None
-        view = memoryview(data)
-        while view:
-            n = os.write(self._fd, view)
-            view = view[n:]
+        n = os.write(self._fd, data)
+        if n < len(data):
+            raise BlockingIOError(f"{self.name}: pty buffer full, {len(data) - n} bytes lost")
 
     def _read(self, timeout: float) -> list[bytes]:
         fd = self._fd
