@@ -50,7 +50,7 @@ def _simulator() -> Simulator:
         "lidar": {"angle_min": -math.pi, "angle_max": math.pi, "beams": 360,
                   "mount": {"x": 0.0, "y": 0.0, "z": 0.6, "yaw": 0.0}, "noise_std": 0.0,
                   "dropout_prob": 0.0, "range_max": 30.0},
-        "lidar3d": {"enabled": True, "azimuths": 360, "rings": 16,
+        "lidar3d": {"enabled": True, "azimuths": 360, "rings": 16, "noise_std": 0.0,
                     "mount": {"x": 0.0, "y": 0.0, "z": 0.6, "yaw": 0.0}}}})
     sim = Simulator(world, robot, seed=0, spawn=Pose2D(10.0, 10.0, 0.0))
     sim.heights = heights
