@@ -60,4 +60,4 @@ def test_gnss_framer_mixed_stream() -> None:
 
 
 def test_datagram_framer() -> None:
-    assert DatagramFramer().feed(b"x") == [b"x"] and DatagramFramer().feed(b"") == []
+    assert DatagramFramer().feed(b"x") == [b"x"] and DatagramFramer().feed(b"") == [b""]

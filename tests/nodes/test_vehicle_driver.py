@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import math
 import socket
+import struct
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from navstack.core.errors import ConfigError
@@ -32,6 +34,7 @@ from navstack.drivers.rover_telemetry import (
 )
 from navstack.drivers.rover_vcu import decode_vcu_command
 from navstack.nodes.vehicle_driver import VehicleDriverNode
+from navstack.runtime.bus import QoS
 from navstack.runtime.node import Runtime
 
 
@@ -202,3 +205,45 @@ def test_vehicle_yaml_errors(tmp_path: Path) -> None:
     f.write_text("type: tractor\nlinks: {}\n")
     with pytest.raises(ConfigError, match=str(f)):
         load_vehicle(f)
+
+
+def test_ten_thousand_random_datagrams_are_counted_and_the_link_stays_up() -> None:
+    """Acceptance 4 through the driver: random bytes, truncated and NaN-laden packets on
+    the rover's UDP link, interleaved with valid odometry -- every bad one is counted,
+    no exception escapes, every valid one is published and the link is never lost."""
+    vcu = _vcu_socket()
+    rt, driver = _rover(vcu, watchdog=0.3)
+    odom: list[Odometry] = []
+    rt.bus.subscribe("/odom", Odometry, odom.append, QoS(depth=1000))
+    rng = np.random.default_rng(7)
+    good = encode_rover_odometry(RoverOdometryPacket(0, 0, 0.1, 0.1, 0.0, 0.0, 0))
+    addr = driver.transports["vcu"].local_address  # type: ignore[attr-defined]
+    bad = valid = 0
+    try:
+        for k in range(10_000):
+            kind = k % 4
+            if kind == 0:
+                packet = rng.bytes(int(rng.integers(0, 64)))
+            elif kind == 1:
+                packet = good[:int(rng.integers(0, len(good)))]
+            elif kind == 2:
+                packet = good[:14] + struct.pack("<f", float("nan")) + good[18:]
+            else:
+                packet = encode_rover_odometry(RoverOdometryPacket(
+                    k % 65536, 20 * k, 0.1, 0.1, 0.0, 0.0, 0))
+            if packet == good or (kind == 3):
+                valid += 1
+            else:
+                bad += 1
+            vcu.sendto(packet, addr)
+            if k % 50 == 49:
+                time.sleep(0.002)
+                rt.scheduler.run_for(0.02)
+        time.sleep(0.05)
+        rt.scheduler.run_for(0.02)
+        stats = driver.transports["vcu"].stats
+        assert stats.malformed == bad and len(odom) == valid
+        assert driver.watchdog.losses == 0 and driver.transports["vcu"].is_open
+    finally:
+        rt.shut_down()
+        vcu.close()

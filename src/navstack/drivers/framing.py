@@ -40,13 +40,14 @@ class Framer(ABC):
 
 
 class DatagramFramer(Framer):
-    """Every datagram is one packet."""
+    """Every datagram is one packet -- an empty one too, so the decoder reports it (a
+    zero-length datagram is malformed, not nothing)."""
 
     def reset(self) -> None:
         """Nothing is buffered between datagrams."""
 
     def feed(self, data: bytes) -> list[bytes]:
-        return [data] if data else []
+        return [data]
 
 
 class LineFramer(Framer):
