@@ -381,7 +381,10 @@ class LinkReader:
     """Polls a transport on a daemon thread; ``sink(packets, t_monotonic)`` gets what came."""
 
     def __init__(self, transport: Transport, sink: Callable[[list[bytes], float], None],
-                 poll_timeout: float = 0.02) -> None:
+                 poll_timeout: float = 0.1) -> None:
+        """``poll_timeout``: how long one read may block; data wakes the read at once, so
+        this only bounds how often an idle link's thread wakes up (and how long
+        :meth:`stop` may take)."""
         self.transport = transport
         self.sink = sink
         self.poll_timeout = poll_timeout

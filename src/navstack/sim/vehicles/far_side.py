@@ -49,7 +49,7 @@ class FarSide:
         self.alive = False
         self.consumed_walls: deque[tuple[bool, float]] = deque(maxlen=1000)
         """Per command packet consumed: (decoded and applied, ``time.perf_counter()``)."""
-        self._readers = {n: LinkReader(t, self._sink(n), poll_timeout=0.01)
+        self._readers = {n: LinkReader(t, self._sink(n), poll_timeout=0.1)
                          for n, t in self.transports.items()}
 
     def _sink(self, link: str) -> Callable[[list[bytes], float], None]:
