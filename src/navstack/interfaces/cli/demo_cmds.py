@@ -50,6 +50,9 @@ def demo(
                                               help="Foxglove WebSocket port.")] = 8765,
     rate: Annotated[float, rate_option("Real-time factor with --web/--foxglove "
                                        "(simulated seconds per wall second).")] = 1.0,
+    link: Annotated[str | None, typer.Option(
+        help="Drive the simulator through the robot's vehicle link: udp (rover VCU on "
+             "loopback) or serial (golf cart Arduinos on ptys).")] = None,
 ) -> None:
     """Flagship mission: visit named waypoints in order in the simulator, write a report.
 
@@ -66,15 +69,24 @@ def demo(
                    "replace it, or choose another --out")
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
                        foxglove_port=foxglove_port, real_time_factor=rate)
+    if link not in (None, "udp", "serial"):
+        raise fail(f"--link must be udp or serial, got {link!r}")
     try:
         with stop_on_sigterm():
             report = run_demo(out, seed, world, robot, waypoints, record=record,
                               replace_bag=force,
-                              attach=attach_to_demo(live) if live.enabled else None)
+                              attach=attach_to_demo(live) if live.enabled else None,
+                              link=link)  # type: ignore[arg-type]
     except NavstackError as exc:
         raise fail(str(exc)) from None
     if "bag" in report:
         typer.echo(f"recorded {report['bag']['messages']} messages to {report['bag']['path']}")
+    if "link" in report:
+        lat = report["link"]["command_latency"]
+        typer.echo(f"vehicle link ({report['link']['kind']}, {report['link']['vehicle']}): "
+                   f"{report['link']['commands_sent']} commands, added command latency p50 "
+                   f"{lat['p50_ms']:.3f} ms, p95 {lat['p95_ms']:.3f} ms, max "
+                   f"{lat['max_ms']:.3f} ms; link losses {report['link']['link_losses']}")
     verdict = "SUCCESS" if report["success"] else "FAILURE"
     moving = report["min_clearance_moving_m"]
     walkers = f", to walkers {moving:.2f} m" if moving is not None else ""
