@@ -99,7 +99,7 @@ def monitor(
 
 @link_app.command("replay")
 def replay(
-    log: Annotated[Path, typer.Argument(help="Packet log (from `link monitor --log`).")],
+    log: Annotated[Path, typer.Argument(help="Packet log (JSON Lines, as `navstack link monitor` records it).")],
     to: Annotated[str | None, typer.Option("--to", help="Send UDP datagrams to ip:port.")
                   ] = None,
     serial: SerialOpt = None,
