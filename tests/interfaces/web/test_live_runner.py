@@ -59,7 +59,8 @@ def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool
     rt.scheduler.run_until(0.35)
     assert status == [False]  # latched state topic, joined late
     assert gate.state() == {"latched": False, "latched_at": 0.05, "released_at": 0.25,
-                            "reason": "", "overrides": 2}
+                            "reason": "", "source": "", "overrides": 2,
+                            "refused_releases": 0}
 
 
 def test_runner_paces_runs_commands_in_its_thread_and_stops() -> None:
