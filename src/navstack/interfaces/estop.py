@@ -125,7 +125,7 @@ class EStopGate:
             self._status.publish(Bool(True))
             self.events.append(EStopEvent("latch", source, self.runtime.now, reason,
                                           requested_at))
-            _log.warning("e-stop latched by %s: %s", source, reason or "-")
+            _log.info("e-stop latched by %s: %s", source, reason or "-")
         self._assert_lock()
         self._pub.publish(Twist())
         assert self.latched_at is not None
@@ -141,7 +141,7 @@ class EStopGate:
             self.source = ""
             self._status.publish(Bool(False))
             self.events.append(EStopEvent("release", source, self.runtime.now))
-            _log.warning("e-stop released by %s", source)
+            _log.info("e-stop released by %s", source)
         self._assert_lock()
         return self.runtime.now
 

@@ -31,8 +31,15 @@ def demo(
     port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1 while the mission runs.")] = False,
     foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
@@ -44,7 +51,8 @@ def demo(
     from navstack.interfaces.live_cli import LiveOptions, attach_to_demo
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     try:
         report = run_demo(out, seed, world, robot, waypoints, record=record,
                           attach=attach_to_demo(live) if live.enabled else None)
@@ -76,8 +84,15 @@ def run(
     port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1.")] = False,
     foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
@@ -92,7 +107,8 @@ def run(
     from navstack.interfaces.stack_description import LocalizationName
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     if not live.enabled:
         raise fail("nothing to watch: add --web and/or --foxglove")
     if amcl and slam:

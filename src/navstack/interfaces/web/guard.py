@@ -67,7 +67,7 @@ class WebSecurityParams(Params):
     http_burst: int = Field(100, ge=1)
     ws_rate: float = Field(10.0, gt=0.0)
     ws_burst: int = Field(20, ge=1)
-    telemetry_budget: float = Field(1000.0, gt=0.0)
+    telemetry_budget: float = Field(400.0, gt=0.0)
     max_body_bytes: int = Field(16384, ge=256, le=1 << 20)
     max_json_depth: int = Field(16, ge=2, le=256)
     max_ws_message_bytes: int = Field(16384, ge=1024, le=65536)

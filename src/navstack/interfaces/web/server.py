@@ -27,6 +27,7 @@ import asyncio
 import base64
 import contextlib
 import json
+import random
 import secrets
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -297,12 +298,13 @@ def create_app(runner: LiveRunner, model: DashboardModel, commander: NavCommande
 
         async def send(obj: dict[str, Any] | str) -> None:
             text = obj if isinstance(obj, str) else json.dumps(obj)
-            await asyncio.wait_for(socket.send_text(text), params.send_timeout)
+            async with asyncio.timeout(params.send_timeout):  # a reader that stalls is dropped
+                await socket.send_text(text)
 
         sender: asyncio.Task[None] | None = None
         try:
             await send(model.hello())
-            sender = asyncio.create_task(_push(model, clock, send, viewers))
+            sender = asyncio.create_task(_push(model, clock, send, viewers, socket))
             await _receive_commands(socket, send, token, executor, params)
         except (WebSocketDisconnect, RuntimeError, TimeoutError):
             pass
@@ -397,14 +399,26 @@ class FrameClock:
 
 
 async def _push(model: DashboardModel, clock: FrameClock, send: Callable[[Any], Any],
-                viewers: ViewerRegistry) -> None:
+                viewers: ViewerRegistry, socket: WebSocket) -> None:
+    """Push telemetry until the viewer leaves or stalls (then close it)."""
+    try:
+        await _push_frames(model, clock, send, viewers)
+    except (WebSocketDisconnect, RuntimeError, TimeoutError, OSError):
+        await _close(socket, 1008, "telemetry not read in time")
+
+
+async def _push_frames(model: DashboardModel, clock: FrameClock, send: Callable[[Any], Any],
+                       viewers: ViewerRegistry) -> None:
     """Send each new state snapshot, plus images / plan / trail points the client lacks, at
-    this viewer's fair share of the telemetry budget."""
+    this viewer's fair share of the telemetry budget.  Each viewer starts at a random
+    phase of its period, so many viewers do not wake in one burst that a command would
+    queue behind."""
     loop = asyncio.get_running_loop()
     known: dict[str, int] = {}
     plan_version = -1
     trail_index = 0
     last_seq = -1
+    await asyncio.sleep(random.uniform(0.0, viewers.frame_period(model.frame_period)))
     while True:
         await clock.wait_newer(last_seq)
         started = loop.time()
