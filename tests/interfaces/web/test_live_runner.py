@@ -54,12 +54,12 @@ def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool
     nav.publish(_cmd(0.25))
     rt.scheduler.run_until(0.3)
     assert seen[-1] == (0.25, 0.25, 0.0) and gate.overrides == 2
-    status: list[bool] = []
-    rt.bus.subscribe("/e_stop", Bool, lambda m: status.append(m.data))
+    lock: list[bool] = []
+    rt.bus.subscribe("/emergency_stop", Bool, lambda m: lock.append(m.data))
     rt.scheduler.run_until(0.35)
-    assert status == [False]  # latched state topic, joined late
+    assert lock == [False]  # the twist_mux lock topic, latched, joined late
     assert gate.state() == {"latched": False, "latched_at": 0.05, "released_at": 0.25,
-                            "reason": "", "source": "", "overrides": 2,
+                            "reason": "", "holder": "", "overrides": 2,
                             "refused_releases": 0}
 
 
