@@ -127,6 +127,14 @@ class Browser:
                          f"r.top + r.height / 2]; }})()")
         self.click(x, y)
 
+    def set_geolocation(self, origin: str, latitude: float, longitude: float,
+                        accuracy: float) -> None:
+        """Grant ``origin`` the geolocation permission and make the browser report this
+        position (what a phone's GNSS would give the page)."""
+        self.send("Browser.grantPermissions", origin=origin, permissions=["geolocation"])
+        self.send("Emulation.setGeolocationOverride", latitude=latitude, longitude=longitude,
+                  accuracy=accuracy)
+
     def screenshot(self) -> bytes:
         return base64.b64decode(self.send("Page.captureScreenshot", format="png")["data"])
 

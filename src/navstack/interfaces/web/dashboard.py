@@ -39,6 +39,7 @@ from navstack.interfaces.web.guard import (
     lan_addresses,
 )
 from navstack.interfaces.web.model import DashboardModel
+from navstack.interfaces.web.phone import PhoneBridge, register_phone_routes
 from navstack.interfaces.web.server import create_app, is_authenticated_estop
 from navstack.interfaces.web.transport import ReadStats, guarded_protocols
 
@@ -61,6 +62,7 @@ class DashboardParams(Params):
     ssl_certfile: str | None = None
     ssl_keyfile: str | None = None
     token_file: str | None = None
+    phone_fix_topic: str = "/fix"
     security: WebSecurityParams = Field(default_factory=WebSecurityParams)
 
 
@@ -79,6 +81,7 @@ class DashboardHandle:
     _owns_runner: bool = field(default=False, repr=False)
     scheme: str = "http"
     viewers: ViewerRegistry | None = None
+    phone: PhoneBridge | None = None
     read_stats: ReadStats | None = None
     guard: GuardMiddleware | None = None
 
@@ -184,6 +187,8 @@ def serve_dashboard(target: NavStack | LiveRunner, host: str = "127.0.0.1", port
     scheme = "https" if p.ssl_certfile else "http"
     viewers = ViewerRegistry(p.security)
     app = create_app(runner, model, commander, secret, p.security, viewers)
+    phone = runner.call(lambda _s: PhoneBridge(runner, commander, p.phone_fix_topic))
+    register_phone_routes(app, phone, app.state.executor, secret, p.security)
     guard = GuardMiddleware(app, HostOriginPolicy(p.host, sock.getsockname()[1], scheme,
                                                   p.security),
                             p.security, is_authenticated_estop(secret))
@@ -212,7 +217,7 @@ def serve_dashboard(target: NavStack | LiveRunner, host: str = "127.0.0.1", port
                                  f"see the log above")
         time.sleep(0.01)
     handle = DashboardHandle(p.host, sock.getsockname()[1], secret, runner, model, commander,
-                             server, thread, owns, scheme, viewers, stats, guard)
+                             server, thread, owns, scheme, viewers, phone, stats, guard)
     if owns:
         runner.start()
     (announce or (lambda s: print(s, file=sys.stdout, flush=True)))(handle.banner())

@@ -163,16 +163,32 @@ class Executor:
             body = body_cls.model_validate(payload if payload is not None else {})
         except ValidationError as exc:
             return 422, {"error": f"invalid '{name}' command: {_problems(exc)}"}
+        if name == "estop":
+            reason = getattr(body, "reason", "") or f"{source} e-stop"
+            requested_at = self.runner.now
+
+            async def latch() -> dict[str, Any]:
+                latched_at = await self.wait(self.runner.request_estop(source, reason))
+                return {"estop": True, "latched_at": latched_at, "requested_at": requested_at}
+
+            return await self._mapped(name, latch())
+        return await self.run_fn(name, lambda: fn(body, source))
+
+    async def run_fn(self, name: str, fn: Callable[[], dict[str, Any]]
+                     ) -> tuple[int, dict[str, Any]]:
+        """Run ``fn()`` in the simulation thread; errors become HTTP statuses."""
         requested_at = self.runner.now
+
+        async def call() -> dict[str, Any]:
+            result = await self.wait(self.runner.submit(lambda _s: fn()))
+            return {**result, "requested_at": requested_at}
+
+        return await self._mapped(name, call())
+
+    async def _mapped(self, name: str, work: Awaitable[dict[str, Any]]
+                      ) -> tuple[int, dict[str, Any]]:
         try:
-            if name == "estop":
-                reason = getattr(body, "reason", "") or f"{source} e-stop"
-                fut = self.runner.request_estop(source, reason)
-                latched_at = await self.wait(fut)
-                return 200, {"estop": True, "latched_at": latched_at,
-                             "requested_at": requested_at}
-            result = await self.wait(self.runner.submit(lambda _s: fn(body, source)))
-            return 200, {**result, "requested_at": requested_at}
+            return 200, await work
         except GoalOutOfBounds as exc:
             return 422, {"error": f"invalid '{name}' command: {exc.field}: {exc}"}
         except CommandRejected as exc:
