@@ -190,11 +190,11 @@ class NavCommander:
                                "distance_remaining": None, "eta": None, "recoveries": 0,
                                "navigation_time": None, "current_waypoint": None,
                                "waypoint_count": 0, "waypoint_name": "", "goal": None,
-                               "goals": []}
+                               "goals": [], "goal_id": None}
         if task is None:
             return out
         h = task.handle
-        out.update(task=task.kind, status=h.status.value,
+        out.update(task=task.kind, status=h.status.value, goal_id=h.goal_id,
                    goals=[[p.x, p.y, p.theta] for p in task.poses])
         if h.result is not None:
             out["reason"] = h.result.error_msg
