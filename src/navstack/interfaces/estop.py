@@ -62,7 +62,12 @@ class EStopEvent:
 class EStopGate:
     """One :class:`EStopClient` per authority on the shared lock, plus the ``/cmd_vel``
     backstop.  ``authority`` is the default source (the dashboard's ``web``).  Use it in
-    the simulation thread."""
+    the simulation thread.
+
+    The gate's state changes at once when it latches or releases (what a reply to the
+    operator must reflect), and follows the lock topic for changes made elsewhere (a
+    switch, a joystick node): the values it published itself are recognised in delivery
+    order and not counted twice."""
 
     def __init__(self, runtime: Runtime, topic: str = "/cmd_vel",
                  authority: str = "web") -> None:
@@ -74,35 +79,23 @@ class EStopGate:
         self.overrides = 0
         self.refused_releases = 0
         self.events: deque[EStopEvent] = deque(maxlen=200)
-        self._pub = runtime.bus.publisher(topic, Twist, QoS(depth=1))
-        self._seen = False  # lock state as last recorded in the audit trail
+        self.latched = False
+        self.holder = ""
+        """Authority holding the latch ("" when released or latched by a raw publisher)."""
+        self.latched_at: float | None = None
+        self.released_at: float | None = None
         self._reason = ""
-        runtime.bus.subscribe(LOCK_TOPIC, Bool, self._on_lock, QoS(depth=10))
+        self._expected: deque[bool] = deque()  # own lock values not yet delivered back
+        self._pub = runtime.bus.publisher(topic, Twist, QoS(depth=1))
+        # subscribed after self.client: its holder is up to date when _on_lock runs
+        runtime.bus.subscribe(LOCK_TOPIC, Bool, self._on_lock, QoS(depth=100))
         with contextlib.suppress(BusError):  # a TwistStamped base: the mux alone acts
             runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
-
-    # --- state: the lock as every client sees it on the bus --------------------------------
-    @property
-    def latched(self) -> bool:
-        return self.client.latched
-
-    @property
-    def latched_at(self) -> float | None:
-        return self.client.latched_at
-
-    @property
-    def released_at(self) -> float | None:
-        return self.client.released_at
 
     @property
     def reason(self) -> str:
         """Why the latch was set (by whichever authority latched last)."""
         return self._reason if self.latched else ""
-
-    @property
-    def holder(self) -> str:
-        """Authority holding the latch ("" when released or latched by a raw publisher)."""
-        return self.client.holder
 
     def client_for(self, authority: str) -> EStopClient:
         """The lock client of ``authority`` (created on first use)."""
@@ -118,59 +111,75 @@ class EStopGate:
         returns the time [s] the lock was first latched.  ``requested_at`` is when the
         request reached the simulation queue (for latency accounting)."""
         source = source or self.authority
-        was = self.latched
-        t = self.client_for(source).latch(reason)
+        self.client_for(source).latch(reason)
+        self._expected.append(True)
         self._pub.publish(Twist())
-        self._seen, self._reason = True, reason
-        if not was:
-            self.events.append(EStopEvent("latch", source, self.runtime.now, reason,
-                                          requested_at))
+        now = self.runtime.now
+        if not self.latched:
+            self.latched, self.latched_at = True, now
+            self.events.append(EStopEvent("latch", source, now, reason, requested_at))
             _log.info("e-stop latched by %s: %s", source, reason or "-")
-        return t
+        self.holder, self._reason = source, reason
+        assert self.latched_at is not None
+        return self.latched_at
 
     def release(self, source: str | None = None) -> float:
         """Release as ``source`` -- an authenticated requester.  Raises
         :class:`EStopReleaseRefused` (recorded) unless ``source`` holds the latch."""
         source = source or self.authority
-        was = self.latched
-        if was and self.holder != source:
-            # judged on the gate's own client, which has seen every change of the lock (a
-            # client created just now has not yet had the latched messages delivered)
+        now = self.runtime.now
+        if not self.latched:
+            return now
+        if self.holder != source:
             held = (f"held by '{self.holder}'" if self.holder
                     else f"latched by a publisher on {LOCK_TOPIC}")
             where = "release it there" if self.holder else f"release it with false on {LOCK_TOPIC}"
             exc = EStopReleaseRefused(f"the e-stop is {held}, not by '{source}'; {where}")
             self.refuse_release(source, str(exc))
             raise exc
-        t = self.client_for(source).release() if was else self.runtime.now
-        self._seen = False
-        if was:
-            self.events.append(EStopEvent("release", source, self.runtime.now))
-            _log.info("e-stop released by %s", source)
-        return t
+        client = self.client_for(source)
+        if not client.latched:  # latched through another client of this authority
+            client.latch(self._reason)
+            self._expected.append(True)
+        client.release()
+        self._expected.append(False)
+        self._released(now)
+        self.events.append(EStopEvent("release", source, now))
+        _log.info("e-stop released by %s", source)
+        return now
 
     def refuse_release(self, source: str, why: str) -> None:
         """Record a release attempt that was refused (the latch stays)."""
         self.refused_releases += 1
         self.events.append(EStopEvent("refused_release", source, self.runtime.now, why))
-        _log.warning("e-stop release refused (%s): %s", source, why)
+        _log.info("e-stop release refused (%s): %s", source, why)
+
+    def _released(self, now: float) -> None:
+        self.latched, self.holder, self._reason = False, "", ""
+        self.released_at = now
 
     # --- bus ---------------------------------------------------------------------------
-    def _on_lock(self, _msg: Bool) -> None:
-        """A change of the lock made by another publisher (a switch, a joystick node, a
-        raw ``false``): zero the base at once on a latch, and record it."""
-        if self.latched == self._seen:
+    def _on_lock(self, msg: Bool) -> None:
+        """A value on the lock topic: our own coming back, or a change made elsewhere (a
+        switch, a joystick node, a raw release): zero the base at once on a latch, and
+        record it."""
+        if self._expected and self._expected[0] == msg.data:
+            self._expected.popleft()
             return
-        self._seen = self.latched
-        who = self.holder or f"lock topic {LOCK_TOPIC}"
-        self._reason = ""
-        if self.latched:
+        now = self.runtime.now
+        if msg.data:
+            who = self.client.holder or f"lock topic {LOCK_TOPIC}"
             self._pub.publish(Twist())
-            self.events.append(EStopEvent("latch", who, self.runtime.now, "",
-                                          self.runtime.now))
-        else:
-            self.events.append(EStopEvent("release", who, self.runtime.now))
-        _log.info("e-stop %s by %s", "latched" if self.latched else "released", who)
+            if not self.latched:
+                self.latched, self.latched_at = True, now
+                self.events.append(EStopEvent("latch", who, now, "", now))
+                _log.info("e-stop latched by %s", who)
+            self.holder, self._reason = self.client.holder, ""
+        elif self.latched:
+            who = self.holder or f"lock topic {LOCK_TOPIC}"
+            self._released(now)
+            self.events.append(EStopEvent("release", who, now))
+            _log.info("e-stop released on %s (held by %s)", LOCK_TOPIC, who)
 
     def _on_cmd(self, msg: Twist) -> None:
         if self.latched and not _is_zero(msg):

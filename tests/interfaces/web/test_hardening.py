@@ -25,12 +25,13 @@ import pytest
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import ClientConnection, connect
 
+from navstack.benchmarks import flood_client
 from navstack.interfaces.stack import NavStack
 from navstack.interfaces.web import DashboardHandle, serve_dashboard
 from tests.interfaces.web.conftest import TOKEN, Base, Live, wait_until
 
 CONTROL_PERIOD = 0.05
-FLOOD = Path(__file__).with_name("flood_client.py")
+FLOOD = Path(flood_client.__file__)
 
 
 def _ws_url(live: Live) -> str:
