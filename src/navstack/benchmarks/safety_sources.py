@@ -196,10 +196,47 @@ def lock_topic(c: Clients) -> Source:
 
 
 def joystick(c: Clients) -> Source:
-    none = lambda: Outcome(False)  # noqa: E731
-    return Source("joystick button", none, none, none,
-                  skip="needs the teleop node of branch i18-command (joystick e-stop "
-                       "button -> lock); to be completed after the merge")
+    """The rover's joystick node (``TeleopNode``) in autonomy mode on ``/joy``: its e-stop
+    button latches as authority ``joystick``; enable + release buttons release."""
+    from navstack.core.msgs import Joy
+    from navstack.nodes.teleop import TeleopNode, TeleopNodeParams
+
+    runner = c.handle.runner
+    gate = runner.estop
+    params = TeleopNodeParams.from_mapping({"start_mode": "auto"}, key_path="teleop")
+    state: dict[str, Any] = {}
+
+    def setup(stack: Any) -> None:
+        node = TeleopNode(stack.runtime, params, name="bench_joystick")
+        node.configure()
+        node.activate()
+        state["pub"] = stack.runtime.bus.publisher(params.joy_topic, Joy)
+
+    runner.call(setup)
+    width = max(params.estop_button, params.release_button, params.joy.enable_button) + 1
+
+    def press(*buttons: int) -> None:
+        pressed = tuple(1 if i in buttons else 0 for i in range(width))
+        runner.call(lambda _s: state["pub"].publish(Joy(axes=(0.0,) * 4, buttons=pressed)))
+        runner.call(lambda _s: state["pub"].publish(Joy(axes=(0.0,) * 4,
+                                                        buttons=(0,) * width)))
+
+    def latch() -> Outcome:
+        press(params.estop_button)
+        return Outcome(_wait(lambda: gate.latched))
+
+    def refuse() -> Outcome:
+        press(params.release_button)  # without the enable button held
+        r = c.http.post("/api/estop/release", headers=c.auth)  # another authority
+        ok = _wait(lambda: gate.latched, 1.0) and r.status_code == 409
+        return Outcome(ok, note=f"release button without enable; dashboard: HTTP "
+                                f"{r.status_code}")
+
+    def release() -> Outcome:
+        press(params.joy.enable_button, params.release_button)
+        return Outcome(_wait(lambda: not gate.latched))
+
+    return Source("joystick button", latch, refuse, release)
 
 
 SOURCES: tuple[Callable[[Clients], Source], ...] = (web_api, web_page, telegram, phone,
