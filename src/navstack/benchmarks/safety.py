@@ -272,6 +272,6 @@ def run(quick: bool, data_dir: Path) -> BenchResult:
     result.metrics["all_unauthorised_releases_refused"] = float(
         all(c["unauthorised_release_refused"] for c in measured))
     for c in result.cases:
-        if c.get("note", "").startswith("needs"):
+        if str(c.get("note", "")).startswith("needs"):
             result.notes.append(f"{c['source']}: {c['note']}")
     return result

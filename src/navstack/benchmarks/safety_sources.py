@@ -198,8 +198,17 @@ def lock_topic(c: Clients) -> Source:
 def joystick(c: Clients) -> Source:
     """The rover's joystick node (``TeleopNode``) in autonomy mode on ``/joy``: its e-stop
     button latches as authority ``joystick``; enable + release buttons release."""
-    from navstack.core.msgs import Joy
-    from navstack.nodes.teleop import TeleopNode, TeleopNodeParams
+    try:
+        from navstack.core.msgs import Joy  # type: ignore[attr-defined, unused-ignore]
+        from navstack.nodes.teleop import (  # type: ignore[import-not-found, unused-ignore]
+            TeleopNode,
+            TeleopNodeParams,
+        )
+    except ImportError:
+        none = lambda: Outcome(False)  # noqa: E731
+        return Source("joystick button", none, none, none,
+                      skip="needs the teleop node (navstack.nodes.teleop, branch "
+                           "i18-command); measured once the branches are merged")
 
     runner = c.handle.runner
     gate = runner.estop

@@ -182,8 +182,11 @@ class EStopGate:
             _log.info("e-stop released on %s (held by %s)", LOCK_TOPIC, who)
 
     def _on_cmd(self, msg: Twist) -> None:
-        if self.latched and not _is_zero(msg):
-            self.overrides += 1
+        if not self.latched:
+            return
+        if _is_zero(msg):
+            self.overrides += 1  # a zero the base got while latched (the mux's, or ours)
+        else:  # a command that bypassed the mux: answered at once
             self._pub.publish(Twist())
 
     def state(self) -> dict[str, Any]:
