@@ -107,7 +107,8 @@ class DashboardHandle:
 
     def banner(self) -> str:
         lines = [f"navstack dashboard: {self.control_url}",
-                 f"  read-only view: {self.url}   (commands need the token: {self.token})"]
+                 f"  read-only view: {self.url}   (commands need the token: {self.token})",
+                 f"  phone page: {self.url}phone#token={self.token}"]
         for url in self.lan_urls:
             lines.append(f"  on the network: {url}#token={self.token}")
         if self.host in WILDCARD_HOSTS and not self.lan_urls:
