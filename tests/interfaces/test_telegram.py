@@ -231,3 +231,28 @@ def test_cli_runs_the_bot_with_the_token_from_the_environment() -> None:
         out = proc.communicate(timeout=30)[0]
         api.stop()
     assert TOKEN not in line + out
+
+
+def test_a_goal_the_stack_refuses_is_reported_in_the_chat() -> None:
+    from navstack.interfaces.telegram import Target
+
+    stack = NavStack("office", seed=1)
+    runner = LiveRunner(stack, real_time_factor=None)
+    runner.start()
+    api = FakeBotApi(TOKEN)
+    geo = runner.call(GeoFrame.for_stack)
+    lat, lon = geo.to_ll(100.0, 5.0)
+    bot = TelegramBot(runner, TOKEN, TelegramParams(allowed_chats=(OPERATOR,),
+                                                    api_url=api.base_url, poll_timeout=1),
+                      targets=[Target("Far", lat, lon, 100.0, 5.0, 0.0)])
+    try:
+        bot.start()
+        api.send_location(OPERATOR, lat, lon)
+        reply = api.wait_for_reply(OPERATOR, lambda t: t.startswith("Sorry"))
+        assert reply.text == ("Sorry, that did not work: x=100 is outside the map: x must lie "
+                              "in [0, 20] m (map frame)")
+        assert bot.chats[OPERATOR].goal_id is None
+    finally:
+        bot.stop()
+        api.stop()
+        runner.stop()

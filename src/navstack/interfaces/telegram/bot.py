@@ -46,6 +46,7 @@ from pydantic import Field, field_validator
 
 from navstack.core.errors import NavstackError
 from navstack.core.params import Params
+from navstack.geo.distance import haversine
 from navstack.interfaces.geo_frame import GeoFrame
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.telegram.redact import TokenRedactor
@@ -253,7 +254,10 @@ class TelegramBot:
             async def handler(update: Update, context: ContextTypes.DEFAULT_TYPE) -> None:
                 chat = update.effective_chat
                 assert chat is not None
-                await fn(chat.id, update, context.bot)
+                try:
+                    await fn(chat.id, update, context.bot)
+                except NavstackError as exc:  # a refused goal, a stopped simulation...
+                    await self._say(context.bot, chat.id, f"Sorry, that did not work: {exc}")
             return handler
 
         app.add_handler(TypeHandler(Update, gate), group=-1)
@@ -299,8 +303,6 @@ class TelegramBot:
         for t in self.targets:
             line = f"- {t.describe()}"
             if here is not None:
-                from navstack.geo.distance import haversine
-
                 line += f": {float(haversine(here[0], here[1], t.latitude, t.longitude)):.0f}" \
                         " m from you"
             lines.append(line)
