@@ -42,11 +42,12 @@ from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_filter_servers import FilterServers, create_filter_servers
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
+from navstack.navigation.nav2_params import Nav2Params, load_nav2_params, stack_navigation
 from navstack.navigation.planner_server import PlannerServer
 from navstack.navigation.waypoint_follower import WaypointFollower
 from navstack.nodes.amcl import AmclNode
 from navstack.nodes.slam import SlamNode
-from navstack.runtime.config import load_stack, load_yaml
+from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
@@ -90,7 +91,8 @@ class NavStack:
     configured and active after :meth:`start`."""
 
     def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
-                 nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
+                 nav2_params: str | Path | Mapping[str, Any] | Nav2Params | None = None,
+                 seed: int = 0,
                  spawn: Pose2D | None = None, *,
                  localization: LocalizationName | Localization = "perfect",
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None) -> None:
@@ -106,11 +108,8 @@ class NavStack:
 
         Nothing runs yet: the arguments are resolved and validated into
         :attr:`description`; :meth:`start` brings the stack up."""
-        if nav2_params is None or isinstance(nav2_params, str | Path):
-            path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
-            nav, file = load_yaml(path), str(path)
-        else:
-            nav, file = dict(nav2_params), "<nav2 params>"
+        checked = load_nav2_params(nav2_params)  # errors name the file; partial files merge
+        nav, file = checked.data, checked.file
         self.description: StackDescription = describe_stack(
             load_world(world) if isinstance(world, str) else world,
             load_robot(robot) if isinstance(robot, str) else robot,
@@ -277,7 +276,7 @@ class NavStack:
         cfg = load_stack(path)
         robot = (load_robot(cfg.robot) if isinstance(cfg.robot, str)
                  else robot_from_mapping(cfg.robot, file=str(path)))
-        nav = cfg.navigation_params() or None
+        nav = stack_navigation(cfg)
         spawn = Pose2D(*cfg.world.spawn) if cfg.world.spawn is not None else None
         return cls(cfg.world.name, robot, nav, cfg.seed, spawn,
                    localization="perfect" if cfg.world.perfect_localization else "external",

@@ -37,6 +37,7 @@ from py_trees.common import Access, Status
 from pydantic import Field
 
 from navstack.core.errors import ConfigError, TransformError, did_you_mean
+from navstack.core.geometry import MAX_COORDINATE
 from navstack.core.msgs import Pose2D, PoseStamped
 from navstack.core.params import Params
 from navstack.navigation import messages as m
@@ -115,6 +116,9 @@ def pose_problem(poses: tuple[PoseStamped, ...]) -> str | None:
         if not all(math.isfinite(v) for v in values):
             return (f"{what} contains NaN or inf (position ({p.x}, {p.y}, {p.z}), orientation "
                     f"({q.x}, {q.y}, {q.z}, {q.w})); send finite numbers")
+        if any(abs(v) > MAX_COORDINATE for v in (p.x, p.y, p.z)):
+            return (f"{what} position ({p.x:g}, {p.y:g}, {p.z:g}) is outside ±"
+                    f"{MAX_COORDINATE:g} m; goals are in metres in the goal's frame")
         norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
         if abs(norm - 1.0) > 1e-3:
             return (f"{what} orientation quaternion has length {norm:.4f}, not 1; normalise "

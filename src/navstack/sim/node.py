@@ -23,8 +23,12 @@ from navstack.core.msgs import (
     Imu,
     LaserScan,
     MagneticField,
+    Marker,
+    MarkerArray,
     NavSatFix,
     Odometry,
+    Point,
+    Pose,
     Pose2D,
     TFMessage,
     Transform,
@@ -37,6 +41,9 @@ from navstack.core.msgs.geometry_msgs import Quaternion
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 from navstack.sim.simulator import Simulator
+
+OBSTACLES_PERIOD = 0.1
+"""Period [s] of ``/sim/obstacles`` (the demo samples clearance at this period too)."""
 
 
 class SimulatorNode(Node):
@@ -77,6 +84,12 @@ class SimulatorNode(Node):
             self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
         if sensors.ground_truth.enabled:
             self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
+            self.pub_footprint = self.create_publisher("/sim/footprint", Marker,
+                                                       QoS(depth=1, latched=True))
+            if self.sim.world.moving_obstacles:
+                self.pub_obstacles = self.create_publisher("/sim/obstacles", MarkerArray,
+                                                           QoS(depth=1))
+                self.create_timer(OBSTACLES_PERIOD, self._obstacles)
         if self.sim.gnss is not None:
             self.pub_fix = self.create_publisher(_topic(sensors.gnss.topic), NavSatFix,
                                                  SENSOR_DATA)
@@ -101,6 +114,11 @@ class SimulatorNode(Node):
             static.append(self._static_tf(sensors.magnetometer.frame_id,
                                           sensors.magnetometer.mount))
         self.pub_tf_static.publish(TFMessage(tuple(static)))
+        if sensors.ground_truth.enabled:
+            outline = [Point(float(x), float(y), 0.0) for x, y in self.sim.footprint.polygon]
+            self.pub_footprint.publish(Marker(Header(self.now, "base_link"), "footprint", 0,
+                                              Marker.LINE_STRIP,
+                                              points=(*outline, outline[0])))
         self._last_imu_t = self.now
         self._odom()
 
@@ -184,6 +202,22 @@ class SimulatorNode(Node):
     def _truth(self) -> None:
         self.advance()
         self.pub_truth.publish(self.sim.truth(self.now))
+
+    def _obstacles(self) -> None:
+        self.advance()
+        header = Header(self.now, "map")
+        markers = []
+        for i, (o, clock) in enumerate(zip(self.sim.world.moving_obstacles,
+                                           self.sim.obstacle_clocks, strict=True)):
+            x, y, heading = o.pose_at(clock)
+            if o.shape == "circle":
+                kind, scale = Marker.CYLINDER, Vector3(2 * o.radius, 2 * o.radius, 1.7)
+            else:
+                kind, scale = Marker.CUBE, Vector3(o.size[0], o.size[1], 1.0)
+            markers.append(Marker(header, o.name, i, kind,
+                                  pose=Pose(Point(x, y, 0.0), Quaternion.from_yaw(heading)),
+                                  scale=scale))
+        self.pub_obstacles.publish(MarkerArray(tuple(markers)))
 
 
 def _topic(name: str) -> str:

@@ -366,8 +366,10 @@ def load_robot(name_or_path: str | Path,
         raise ConfigError(f"cannot read robot profile: {exc}", file=str(path)) from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"invalid YAML: {exc}", file=str(path)) from None
-    if data is None:
-        data = {}
+    if data is None or data == {}:
+        raise ConfigError("empty robot profile", file=str(path), suggestion=(
+            "give at least 'kinematics' and 'footprint' or 'robot_radius' (see the built-in "
+            "profiles: navstack robots)"))
     if not isinstance(data, Mapping):
         raise ConfigError(f"a robot profile must be a mapping of keys, got "
                           f"{type(data).__name__}", file=str(path), key_path="robot")

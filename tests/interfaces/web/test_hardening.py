@@ -119,7 +119,7 @@ def test_malformed_websocket_json_gets_a_close_frame(live: Live) -> None:
                 msg = json.loads(ws.recv(timeout=10))
                 if msg["type"] == "error":
                     error = msg
-    assert error is not None and error["status"] == 400
+    assert error is not None and error["status"] == 422
     assert error["error"].startswith("messages must be JSON: body is not JSON")
     assert closed.value.rcvd is not None and closed.value.rcvd.code == 1007
     with connect(_ws_url(live), open_timeout=10) as ws:
@@ -156,8 +156,9 @@ def test_bodies_nested_oversized_and_goal_bounds_get_4xx(live: Live) -> None:
     auth = {**live.auth(), "Content-Type": "application/json"}
     nested = b'{"x": ' + b"[" * 3000 + b"]" * 3000 + b', "y": 1}'
     r = live.client.post("/api/goal", content=nested, headers=auth)
-    assert r.status_code == 400
-    assert r.json()["error"] == "JSON nested 3001 levels deep; at most 16 allowed"
+    assert r.status_code == 422
+    assert r.json()["error"] == ("body is not JSON within the limits: nested 3001 levels "
+                                 "deep; at most 16 allowed")
     # a big body is refused from its Content-Length, before it is read
     with socket.create_connection(("127.0.0.1", live.handle.port), timeout=10) as sock:
         sock.sendall((f"POST /api/goal HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer "
@@ -167,13 +168,13 @@ def test_bodies_nested_oversized_and_goal_bounds_get_4xx(live: Live) -> None:
         while chunk := sock.recv(4096):
             reply += chunk
     assert reply.startswith(b"HTTP/1.1 413 ")
-    assert reply.endswith(b'{"error": "body of 16777216 bytes exceeds the limit of 16384"}')
+    assert reply.endswith(b'{"error": "body of 16777216 bytes is larger than 65536 bytes"}')
     r = live.client.post("/api/goal", content=b'{"x": 1, "y": ', headers=auth)
-    assert r.status_code == 400 and r.json()["error"].startswith("body is not JSON")
+    assert r.status_code == 422 and r.json()["error"].startswith("body is not JSON")
     r = live.client.post("/api/goal", json={"x": 1e300, "y": 5.0}, headers=live.auth())
     assert r.status_code == 422
     assert r.json()["error"] == ("invalid 'goal' command: x: Input should be less than or "
-                                 "equal to 10000000")
+                                 "equal to 100000000")
     r = live.client.post("/api/goal", json={"x": 100.0, "y": 5.0}, headers=live.auth())
     assert r.status_code == 422
     assert r.json()["error"] == ("invalid 'goal' command: x: x=100 is outside the map: x must "

@@ -18,7 +18,7 @@ Each answers a finding of a probe against the first dashboard (issue 18, part 7)
   most ``telemetry_budget`` messages per second, so many viewers lower each one's frame
   rate instead of starving the event loop that also serves commands.
 * **Bodies**: at most ``max_body_bytes`` (413) and ``max_json_depth`` levels of nesting
-  (400) -- a deeply nested body used to end in a RecursionError and HTTP 500.
+  (422) -- a deeply nested body used to end in a RecursionError and HTTP 500.
 
 Frame-size limits on WebSockets are enforced below the application, in
 :mod:`navstack.interfaces.web.transport`.
@@ -68,7 +68,7 @@ class WebSecurityParams(Params):
     ws_rate: float = Field(10.0, gt=0.0)
     ws_burst: int = Field(20, ge=1)
     telemetry_budget: float = Field(400.0, gt=0.0)
-    max_body_bytes: int = Field(16384, ge=256, le=1 << 20)
+    max_body_bytes: int = Field(65536, ge=256, le=1 << 20)
     max_json_depth: int = Field(16, ge=2, le=256)
     max_ws_message_bytes: int = Field(16384, ge=1024, le=65536)
     read_chunk_bytes: int = Field(16384, ge=1024, le=65536)
@@ -100,18 +100,19 @@ def json_depth(raw: bytes) -> int:
 
 
 def parse_json(raw: bytes | str, max_bytes: int, max_depth: int) -> Any:
-    """Parse a request body or WebSocket message; :class:`BodyError` (413 / 400) when it is
+    """Parse a request body or WebSocket message; :class:`BodyError` (413 / 422) when it is
     too large, nested deeper than ``max_depth`` or not JSON."""
     data = raw.encode() if isinstance(raw, str) else raw
     if len(data) > max_bytes:
-        raise BodyError(413, f"body of {len(data)} bytes exceeds the limit of {max_bytes}")
+        raise BodyError(413, f"body of {len(data)} bytes is larger than {max_bytes} bytes")
     depth = json_depth(data)
     if depth > max_depth:
-        raise BodyError(400, f"JSON nested {depth} levels deep; at most {max_depth} allowed")
+        raise BodyError(422, f"body is not JSON within the limits: nested {depth} levels "
+                             f"deep; at most {max_depth} allowed")
     try:
         return json.loads(data) if data.strip() else None
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-        raise BodyError(400, f"body is not JSON: {exc}") from None
+        raise BodyError(422, f"body is not JSON: {exc}") from None
 
 
 # --- rate limits -----------------------------------------------------------------------------
@@ -324,8 +325,8 @@ class GuardMiddleware:
         if kind == "http" and length is not None and length.isdigit() and (
                 int(length) > self.params.max_body_bytes):
             await _refuse(kind, receive, send, 413,
-                          f"body of {length} bytes exceeds the limit of "
-                          f"{self.params.max_body_bytes}")
+                          f"body of {length} bytes is larger than "
+                          f"{self.params.max_body_bytes} bytes")
             return
         await self.app(scope, receive, send)
 

@@ -41,6 +41,7 @@ from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from navstack.core.errors import NavstackError
+from navstack.core.geometry import MAX_COORDINATE
 from navstack.interfaces.live_runner import LiveRunner, RunnerError
 from navstack.interfaces.web.commands import (
     CommandRejected,
@@ -61,8 +62,6 @@ from navstack.interfaces.web.model import LAYERS, DashboardModel
 
 COMMAND_TIMEOUT = 10.0
 """Wall seconds a command may wait for the simulation thread."""
-MAX_COORDINATE = 1.0e7
-"""|x|, |y| bound [m] checked before the map bounds (an Earth-sized frame)."""
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
 Heading = Annotated[float, Field(allow_inf_nan=False, ge=-1000.0, le=1000.0)]
@@ -354,7 +353,8 @@ async def _receive_commands(socket: WebSocket, send: Callable[[Any], Awaitable[N
         try:
             msg = parse_json(text, params.max_ws_message_bytes, params.max_json_depth)
         except BodyError as exc:
-            await send({"type": "error", "status": 400, "error": f"messages must be JSON: {exc}"})
+            await send({"type": "error", "status": exc.status,
+                        "error": f"messages must be JSON: {exc}"})
             await _close(socket, 1007, f"malformed JSON: {exc}")
             return
         urgent = (isinstance(msg, dict) and msg.get("command") == "estop"
