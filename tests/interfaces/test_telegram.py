@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -140,6 +141,9 @@ def test_one_latches_the_estop_and_only_that_chat_releases(setup: Setup) -> None
     api.send_location(OPERATOR, lat, lon)  # Corridor_East: a long drive
     api.wait_for_reply(OPERATOR, lambda t: t.startswith("Going to Corridor_East"))
     wait_until(lambda: setup.base.speed() > 0.3, 30, "the robot to drive")
+    progress = api.wait_for_reply(OPERATOR, lambda t: t.startswith("On the way"), timeout=30)
+    assert re.fullmatch(r"On the way to Corridor_East: \d+ m to go, about \d+ s\.",
+                        progress.text), progress.text
     api.send_text(OPERATOR, "1")
     api.wait_for_reply(OPERATOR, lambda t: t.startswith("E-STOP LATCHED"))
     gate = setup.runner.estop
