@@ -25,6 +25,7 @@ SUITE_MODULES: dict[str, str] = {
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
     "link": "navstack.benchmarks.link",
+    "safety": "navstack.benchmarks.safety",
 }
 
 

@@ -42,8 +42,15 @@ def demo(
     port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1 while the mission runs.")] = False,
     foxglove_port: Annotated[int, port_option("--foxglove-port",
@@ -68,7 +75,8 @@ def demo(
         raise fail(f"--record: {bag} already exists (from an earlier run); add --force to "
                    "replace it, or choose another --out")
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     if link not in (None, "udp", "serial"):
         raise fail(f"--link must be udp or serial, got {link!r}")
     try:
@@ -114,8 +122,15 @@ def run(
     port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1.")] = False,
     foxglove_port: Annotated[int, port_option("--foxglove-port",
@@ -132,7 +147,8 @@ def run(
     from navstack.interfaces.stack_description import LocalizationName
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     if not live.enabled:
         raise fail("nothing to watch: add --web and/or --foxglove")
     if stack_file is not None and (amcl or slam):
