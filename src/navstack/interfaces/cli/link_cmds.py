@@ -99,7 +99,8 @@ def monitor(
 
 @link_app.command("replay")
 def replay(
-    log: Annotated[Path, typer.Argument(help="Packet log (JSON Lines, as `navstack link monitor` records it).")],
+    log: Annotated[Path, typer.Argument(
+        help="Packet log (JSON Lines, as `navstack link monitor` records it).")],
     to: Annotated[str | None, typer.Option("--to", help="Send UDP datagrams to ip:port.")
                   ] = None,
     serial: SerialOpt = None,
