@@ -338,9 +338,24 @@ async def _refuse(kind: str, receive: Receive, send: Send, status: int, reason: 
         # closing before accepting: the server answers the handshake with HTTP 403
         await send({"type": "websocket.close", "code": 1008, "reason": reason[:120]})
         return
+    if status != 413:
+        await _drain_body(receive, limit=1 << 20)
     body = json.dumps({"error": reason}).encode()
     hdrs = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
             (b"connection", b"close")]
     hdrs += [(k.encode(), v.encode()) for k, v in (headers or {}).items()]
     await send({"type": "http.response.start", "status": status, "headers": hdrs})
     await send({"type": "http.response.body", "body": body})
+
+
+async def _drain_body(receive: Receive, limit: int) -> None:
+    """Read up to ``limit`` bytes of the request body before refusing it.
+
+    Closing a connection whose request body is still unread makes the kernel send a TCP
+    reset, and the client sees "connection reset" instead of the 429 it was sent."""
+    read = 0
+    while read <= limit:
+        message = await receive()
+        if message["type"] != "http.request" or not message.get("more_body", False):
+            return
+        read += len(message.get("body", b""))
