@@ -188,3 +188,58 @@ def test_every_mistake_of_a_file_is_reported_at_once() -> None:
         "f.yaml: bt_navigator: missing 'ros__parameters' (did you mean 'ros__parameters'?)"]
     with pytest.raises(ConfigError, match=r"f\.yaml: global_costmap: must be a mapping"):
         check_nav2_data({"global_costmap": 3}, "f.yaml")
+
+
+def test_command_chain_sections_are_checked_whole() -> None:
+    """velocity_smoother, collision_monitor and twist_mux are read, not ignored: their
+    values, polygon/source sections and mux entries are checked with the file's keys."""
+    square = [[0.3, 0.3], [0.3, -0.3], [-0.3, -0.3], [-0.3, 0.3]]
+    with pytest.raises(ConfigErrors) as info:
+        check_nav2_data({
+            "velocity_smoother": {"ros__parameters": {"smoothing_frequency": -1.0,
+                                                      "feedback": "OPEN"}},
+            "collision_monitor": {"ros__parameters": {
+                "polygons": ["Stop", "Slow"], "observation_sources": ["scan"],
+                "Stop": {"type": "polygon", "action_type": "stop", "points": square,
+                         "slowdown_ration": 0.3},
+                "scan": {"type": "scan", "topic": "scan"}}},
+            "twist_mux": {"ros__parameters": {
+                "topics": {"navigation": {"topic": "nav_vel", "timeout": 0.5,
+                                          "priorty": 10}},
+                "locks": {"e_stop": {"topic": "e_stop", "timeout": 0.0, "priority": 300}}}},
+        }, "f.yaml")
+    assert str(info.value).splitlines() == [
+        "f.yaml: velocity_smoother.ros__parameters.smoothing_frequency: Input should be "
+        "greater than 0 (got -1.0)",
+        "f.yaml: velocity_smoother.ros__parameters.feedback: Input should be 'OPEN_LOOP' or "
+        "'CLOSED_LOOP' (got 'OPEN')",
+        "f.yaml: collision_monitor.ros__parameters.Slow: polygon 'Slow' has no section "
+        "(add 'Slow: {type: ...}' beside the list)",
+        "f.yaml: twist_mux.ros__parameters.topics.navigation.priority: required key is "
+        "missing",
+        "f.yaml: twist_mux.ros__parameters.topics.navigation.priorty: unknown key",
+        "f.yaml: twist_mux.ros__parameters.locks.e_stop.priority: Input should be less than "
+        "or equal to 255 (got 300)"]
+    with pytest.raises(ConfigError, match=r"^f\.yaml: collision_monitor\.ros__parameters\."
+                                          r"Stop\.slowdown_ration: unknown key \(did you "
+                                          r"mean 'slowdown_ratio'\?\)$"):
+        check_nav2_data({"collision_monitor": {"ros__parameters": {
+            "polygons": ["Stop"], "observation_sources": [],
+            "Stop": {"type": "polygon", "action_type": "stop", "points": square,
+                     "slowdown_ration": 0.3}}}}, "f.yaml")
+    with pytest.raises(ConfigError, match=r"^f\.yaml: twist_mux\.ros__parameters\.topic: "
+                                          r"unknown twist_mux parameter \(did you mean "
+                                          r"'topics'\?\)$"):
+        check_nav2_data({"twist_mux": {"ros__parameters": {"topic": {}}}}, "f.yaml")
+    with pytest.raises(ConfigErrors, match=r"collision_monitor\.ros__parameters\."
+                                           r"observation_sources: collision_monitor needs "
+                                           r"'observation_sources' \(Nav2 requires it\)"):
+        check_nav2_data({"collision_monitor": {"ros__parameters": {"stop_pub_timeout": 1.0}}},
+                        "f.yaml")
+    # a valid section in the ROS 2 layout passes and is kept as it is
+    nav = check_nav2_data({"twist_mux": {"ros__parameters": {
+        "topics": {"navigation": {"topic": "cmd_vel_nav", "timeout": 0.5, "priority": 50}},
+        "locks": {"e_stop_lock": {"topic": "e_stop", "timeout": 0.0, "priority": 255}}}}},
+        "f.yaml")
+    assert nav.data["twist_mux"]["ros__parameters"]["locks"] == {
+        "e_stop_lock": {"topic": "e_stop", "timeout": 0.0, "priority": 255}}

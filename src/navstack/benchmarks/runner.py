@@ -24,6 +24,8 @@ SUITE_MODULES: dict[str, str] = {
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
+    "link": "navstack.benchmarks.link",
+    "safety": "navstack.benchmarks.safety",
 }
 
 

@@ -30,7 +30,7 @@ from typing import Any
 from pydantic import Field
 
 from navstack.core.config_files import ros_parameters
-from navstack.core.errors import ConfigError
+from navstack.core.errors import ConfigError, ConfigErrors
 from navstack.core.params import Params
 
 __all__ = ["MuxAction", "MuxEntry", "TwistMux", "TwistMuxParams", "twist_mux_params"]
@@ -89,6 +89,13 @@ def _entries(value: Any, kind: str, file: str, key_path: str) -> list[dict[str, 
                       "(ROS 2)", file=file, key_path=key_path)
 
 
+def _renamed(path: str, named: Mapping[str, str]) -> str:
+    for indexed, name in named.items():
+        if path == indexed or path.startswith(indexed + "."):
+            return name + path[len(indexed):]
+    return path
+
+
 def twist_mux_params(data: Mapping[str, Any], *, file: str = "",
                      overrides: Mapping[str, Any] | None = None) -> TwistMuxParams:
     """A twist_mux configuration from a YAML document in either layout: the top level
@@ -105,9 +112,20 @@ def twist_mux_params(data: Mapping[str, Any], *, file: str = "",
     def key(k: str) -> str:
         return f"{prefix}.{k}" if prefix else k
 
-    raw["topics"] = _entries(raw.get("topics"), "topic", file, key("topics"))
-    raw["locks"] = _entries(raw.get("locks"), "lock", file, key("locks"))
-    out = TwistMuxParams.from_mapping(raw, file=file, key_path=prefix)
+    named: dict[str, str] = {}  # "topics[0]" -> "topics.navigation" (ROS 2 map layout)
+    for kind in ("topics", "locks"):
+        value = raw.get(kind)
+        raw[kind] = _entries(value, kind[:-1], file, key(kind))
+        if isinstance(value, Mapping):
+            named.update({key(f"{kind}[{i}]"): key(f"{kind}.{e['name']}")
+                          for i, e in enumerate(raw[kind])})
+    try:
+        out = TwistMuxParams.from_mapping(raw, file=file, key_path=prefix)
+    except ConfigError as exc:
+        errors = exc.errors if isinstance(exc, ConfigErrors) else [exc]
+        renamed = [ConfigError(e.reason, file=e.file, key_path=_renamed(e.key_path, named),
+                               suggestion=e.suggestion) for e in errors]
+        raise (renamed[0] if len(renamed) == 1 else ConfigErrors(renamed)) from None
     for kind, entries in (("topics", out.topics), ("locks", out.locks)):
         seen: dict[str, str] = {}
         for e in entries:

@@ -8,6 +8,11 @@ Success means every goal SUCCEEDED, the robot never touched anything and, when t
 parameters declare costmap filter zones (the golf cart's campus does), no plan and no part
 of the body entered a keepout zone and the true speed in each speed zone stayed within its
 cap + 5 % (:mod:`navstack.interfaces.zones`).
+
+``link`` ("udp" for the rover, "serial" for the golf cart) runs the same mission through
+the robot's vehicle link: the stack drives a simulated vehicle over a real socket / pty
+(:mod:`navstack.interfaces.hil`), and the report adds the link's figures (command
+latency, packets, malformed, losses).
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path as FsPath
@@ -26,6 +31,7 @@ import numpy as np
 
 from navstack.core.msgs import Path, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
+from navstack.interfaces.hil import LinkKind, hil_stack
 from navstack.interfaces.motion_quality import (
     length_ratio,
     self_crossings,
@@ -50,7 +56,7 @@ def default_waypoints_path() -> FsPath:
 class DemoSetup:
     """What ``navstack demo --robot NAME`` runs when world, waypoints and Nav2 parameters
     are not given: the flagship office mission for indoor robots, the campus route with
-    Hybrid-A* + MPPI for the golf cart."""
+    Hybrid-A* + MPPI for the golf cart, a campus route with NavFn + DWB for the rover."""
 
     world: str
     waypoints: FsPath
@@ -61,6 +67,9 @@ def demo_setup(robot: str) -> DemoSetup:
     if robot == "golf_cart":
         return DemoSetup("campus", _config("campus_waypoints.yaml"),
                          _config("golf_cart_nav2_params.yaml"))
+    if robot == "rover":
+        return DemoSetup("campus", _config("rover_campus_waypoints.yaml"),
+                         _config("rover_nav2_params.yaml"))
     return DemoSetup("office", default_waypoints_path(), None)
 
 
@@ -148,7 +157,9 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
 def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
              show_progress: bool = True, record: bool = False, replace_bag: bool = False,
-             attach: Callable[[NavStack], Callable[[], None]] | None = None) -> dict[str, Any]:
+             attach: Callable[[NavStack], Callable[[], None]] | None = None,
+             link: LinkKind | None = None,
+             nav2_params: FsPath | Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
@@ -156,13 +167,25 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     :class:`~navstack.runtime.recording.BagExistsError` unless ``replace_bag``.
     ``attach``: called with the stack once it is built (live viewers: web dashboard,
     Foxglove); returns the function that detaches them when the mission ends.
+    ``link``: run through the robot's vehicle link (module docstring); ``nav2_params``:
+    instead of the robot's packaged Nav2 file.
     """
     out.mkdir(parents=True, exist_ok=True)
     setup = demo_setup(robot)
     world = world or setup.world
     waypoints = load_waypoints(waypoints_file or setup.waypoints)
+    params = setup.nav2_params if nav2_params is None else nav2_params
     wall0 = time.perf_counter()
-    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed).start()
+    vehicle_link = None
+    if link is not None:
+        stack, vehicle_link = hil_stack(world, robot, params, seed, link)
+        try:
+            stack.start()
+        except BaseException:
+            vehicle_link.close()
+            raise
+    else:
+        stack = NavStack(world, robot, nav2_params=params, seed=seed).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder
@@ -187,6 +210,9 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
         bag_summary = bag.close() if bag is not None else None
         if detach is not None:
             detach()
+        link_report = vehicle_link.report() if vehicle_link is not None else None
+        if vehicle_link is not None:
+            vehicle_link.close()
     live.close()
     wall = time.perf_counter() - wall0
     traj = recorder.array()
@@ -217,6 +243,10 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
             live.done(line)
     if bag_summary is not None:
         report["bag"] = {"path": str(bag_summary.path), "messages": bag_summary.messages}
+    if link_report is not None:
+        report["link"] = link_report
+    np.savetxt(out / "trajectory.csv", traj, delimiter=",", header="t,x,y,theta", fmt="%.4f",
+               comments="")
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(_markdown(report))
     goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}

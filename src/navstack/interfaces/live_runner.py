@@ -32,15 +32,13 @@ from typing import Any, TypeVar
 
 from pydantic import Field
 
-from navstack.core.errors import BusError, NavstackError
-from navstack.core.msgs import Twist
+from navstack.core.errors import NavstackError
 from navstack.core.params import Params
+from navstack.interfaces.estop import EStopGate
 from navstack.interfaces.stack import NavStack
-from navstack.nodes.estop import EStopClient
-from navstack.runtime.bus import QoS
-from navstack.runtime.node import Runtime
 
 T = TypeVar("T")
+__all__ = ["EStopGate", "LiveRunner", "LiveRunnerParams", "RunnerError"]
 _log = logging.getLogger("navstack.live")
 
 
@@ -62,72 +60,6 @@ class LiveRunnerParams(Params):
     max_lag: float = Field(0.5, gt=0.0)
 
 
-def _is_zero(msg: Twist) -> bool:
-    return (msg.linear.x == 0.0 and msg.linear.y == 0.0 and msg.linear.z == 0.0
-            and msg.angular.x == 0.0 and msg.angular.y == 0.0 and msg.angular.z == 0.0)
-
-
-class EStopGate:
-    """The dashboard's latched emergency stop: an :class:`EStopClient` with authority
-    ``web`` on twist_mux's lock ``/emergency_stop`` (``docs/command_path.md``).
-
-    :meth:`latch` publishes true on the lock; the twist mux answers at the same simulated
-    instant with a zero on ``/cmd_vel`` and masks every input below the lock's priority
-    (navigation, teleop...) until :meth:`release` publishes false.  The state follows the
-    lock, so a latch from any source (phone, Telegram, joystick, the lock topic itself)
-    shows here as latched; a release is refused (``EStopReleaseRefused``, HTTP 409) while
-    another authority holds the latch.  ``overrides`` counts the zero commands that reached
-    ``topic`` while latched.
-
-    Navigation is not cancelled: as with a hardware e-stop under Nav2, the running task
-    resumes after release (or fails through its progress checker if held long enough).
-    """
-
-    def __init__(self, runtime: Runtime, topic: str = "/cmd_vel",
-                 authority: str = "web") -> None:
-        self.runtime = runtime
-        self.topic = topic
-        self.client = EStopClient(runtime, authority)
-        self.overrides = 0
-        with contextlib.suppress(BusError):  # a TwistStamped base: nothing to count
-            runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
-
-    @property
-    def latched(self) -> bool:
-        return self.client.latched
-
-    @property
-    def latched_at(self) -> float | None:
-        return self.client.latched_at
-
-    @property
-    def released_at(self) -> float | None:
-        return self.client.released_at
-
-    @property
-    def reason(self) -> str:
-        return self.client.reason
-
-    def latch(self, reason: str = "") -> float:
-        """Latch (idempotent); returns the time [s] the lock was first latched, which is
-        when the mux commanded the base to zero."""
-        return self.client.latch(reason)
-
-    def release(self) -> float:
-        """Release the latch; commands pass again from the next one.  Returns the time [s].
-        Raises ``EStopReleaseRefused`` when another authority holds the latch."""
-        return self.client.release()
-
-    def _on_cmd(self, msg: Twist) -> None:
-        if self.client.latched and _is_zero(msg):
-            self.overrides += 1
-
-    def state(self) -> dict[str, Any]:
-        return {"latched": self.latched, "latched_at": self.latched_at,
-                "released_at": self.released_at, "reason": self.reason,
-                "holder": self.client.holder, "overrides": self.overrides}
-
-
 class LiveRunner:
     """Runs ``stack`` in a background thread at ``real_time_factor`` x real time."""
 
@@ -145,6 +77,8 @@ class LiveRunner:
         self.observer_errors = 0
         self.error: BaseException | None = None
         self._commands: queue.SimpleQueue[tuple[Callable[[NavStack], Any], Future[Any]]] = (
+            queue.SimpleQueue())
+        self._urgent: queue.SimpleQueue[tuple[Callable[[NavStack], Any], Future[Any]]] = (
             queue.SimpleQueue())
         self._observers: list[Callable[[float], None]] = []
         self._stop = threading.Event()
@@ -228,12 +162,15 @@ class LiveRunner:
         return (s1 - s0) / (w1 - w0) if w1 > w0 else 0.0
 
     # --- work from other threads ---------------------------------------------------------------
-    def submit(self, fn: Callable[[NavStack], T]) -> Future[T]:
-        """Run ``fn(stack)`` in the simulation thread before the next step."""
+    def submit(self, fn: Callable[[NavStack], T], *, urgent: bool = False) -> Future[T]:
+        """Run ``fn(stack)`` in the simulation thread before the next step.
+
+        ``urgent`` work (the e-stop) runs before every queued ordinary command, so a
+        latch never waits behind a burst of goals or other requests."""
         if not self.running:
             raise RunnerError(self._not_running())
         fut: Future[T] = Future()
-        self._commands.put((fn, fut))
+        (self._urgent if urgent else self._commands).put((fn, fut))
         self._wake.set()
         if not self.running:  # the thread ended between the check and the put
             self._fail_pending()
@@ -277,12 +214,28 @@ class LiveRunner:
         return "the simulation was stopped"
 
     # --- the simulation thread -------------------------------------------------------------------
+    def request_estop(self, source: str, reason: str = "") -> Future[float]:
+        """Latch the shared e-stop from any thread (urgent: ahead of queued commands);
+        the future's result is the simulated latch time.  Every operator interface
+        (web API and page, phone, Telegram) stops the robot through this one call."""
+        requested_at = self.now
+        return self.submit(lambda _s: self.estop.latch(reason, source, requested_at),
+                           urgent=True)
+
+    def _next(self) -> tuple[Callable[[NavStack], Any], Future[Any]] | None:
+        for q in (self._urgent, self._commands):
+            try:
+                return q.get_nowait()
+            except queue.Empty:
+                continue
+        return None
+
     def _drain(self) -> None:
         while True:
-            try:
-                fn, fut = self._commands.get_nowait()
-            except queue.Empty:
+            item = self._next()
+            if item is None:
                 return
+            fn, fut = item
             if not fut.set_running_or_notify_cancel():
                 continue
             try:
@@ -334,10 +287,10 @@ class LiveRunner:
 
     def _fail_pending(self) -> None:
         while True:
-            try:
-                _, fut = self._commands.get_nowait()
-            except queue.Empty:
+            item = self._next()
+            if item is None:
                 return
+            _, fut = item
             if fut.set_running_or_notify_cancel():
                 fut.set_exception(RunnerError(self._not_running()))
 

@@ -19,6 +19,11 @@ naming the file, the key path and the closest known name:
   (did you mean ``controller_frequency``?).  A mapping no plugin list names is a typo of
   a listed plugin when one is close (error), else unused (Nav2 ignores it too).
   Plugin and layer sections are checked by the plugins themselves.
+* **Command chain values.**  The ``velocity_smoother``, ``collision_monitor`` and
+  ``twist_mux`` sections are checked whole, as their stages read them: value types and
+  ranges, every polygon and observation source the lists name (a missing section, a
+  ``slowdown_ration``), the mux's topic and lock entries (``priorty``, a priority above
+  255, duplicate topics).
 * **Partial files.**  A file that configures only some servers is merged over the
   packaged defaults (``navstack/config/nav2_params.yaml``) section by section: a server
   the file names takes the file's section as a whole (as a Nav2 node reads only its own
@@ -142,6 +147,15 @@ _PLUGIN_LISTS: dict[str, dict[str, tuple[str, ...]]] = {
 }
 """Lists whose named sections a run server reads (plugins, layers, checkers)."""
 
+CHAIN_SECTIONS: frozenset[str] = frozenset({"velocity_smoother", "collision_monitor",
+                                            "twist_mux"})
+"""The command chain's stages (docs/command_path.md): their values are checked here too,
+as the stage reads them (the other servers' values are checked when they are built)."""
+
+_NO_SPARE_SECTIONS: frozenset[str] = frozenset({"velocity_smoother", "twist_mux"})
+"""Servers without plugin lists: a mapping among their keys is an unknown parameter (a
+``topic:`` for ``topics:``), not a spare plugin section."""
+
 _IGNORED_LISTS: dict[str, tuple[str, ...]] = {
     # lists whose named sections belong to Nav2 features navstack does not load
     "controller_server": ("path_handler_plugins",),
@@ -263,7 +277,7 @@ def _check_server(name: str, params: dict[str, Any], path: str, file: str,
             ignored.append(f"{name}.{key}")
         elif key in ROS_NODE_KEYS:
             continue
-        elif isinstance(value, Mapping):
+        elif isinstance(value, Mapping) and name not in _NO_SPARE_SECTIONS:
             missing = [n for n in listed if n not in params]
             hint = did_you_mean(key, missing).strip(" ()")
             if hint:
@@ -277,6 +291,35 @@ def _check_server(name: str, params: dict[str, Any], path: str, file: str,
                 f"unknown {name} parameter", file=file, key_path=f"{path}.{key}",
                 suggestion=did_you_mean(key, known).strip(" ()")))
     return kept, errors
+
+
+def _check_chain_values(name: str, kept: dict[str, Any], path: str,
+                        file: str) -> list[ConfigError]:
+    """Check the values of a command-chain section as its stage will read them (types,
+    ranges, polygon and source sections, mux entries); every error names ``path``."""
+    from navstack.control.collision_monitor import collision_monitor_params
+    from navstack.control.twist_mux import twist_mux_params
+    from navstack.control.velocity_smoother import VelocitySmootherParams
+
+    try:
+        if name == "velocity_smoother":
+            VelocitySmootherParams.from_mapping(kept, file=file, key_path=path)
+        elif name == "collision_monitor":
+            missing = [k for k in ("polygons", "observation_sources") if k not in kept]
+            if missing:  # Nav2 declares both without a default
+                return [ConfigError(f"collision_monitor needs '{k}' (Nav2 requires it)",
+                                    file=file, key_path=f"{path}.{k}",
+                                    suggestion=f"list the {k} section names; see the "
+                                               "packaged nav2_params.yaml's collision_monitor")
+                    for k in missing]
+            collision_monitor_params(kept, file=file, key_path=path)
+        elif name == "twist_mux":
+            twist_mux_params({"twist_mux": {ROS_PARAMETERS: kept}}, file=file)
+    except ConfigErrors as exc:
+        return list(exc.errors)
+    except ConfigError as exc:
+        return [exc]
+    return []
 
 
 def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
@@ -317,6 +360,8 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
         kept, server_errors = _check_server(name, {**_wildcard_for(name, wildcard), **params},
                                             path, file, ignored_keys)
         errors.extend(server_errors)
+        if name in CHAIN_SECTIONS and not server_errors:
+            errors.extend(_check_chain_values(name, kept, path, file))
         out[name] = ({name: {ROS_PARAMETERS: kept}} if name in NESTED
                      else {ROS_PARAMETERS: kept})
     for name in filters:

@@ -9,13 +9,23 @@ Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
 (nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link at the odometry
 rate, and map -> odom when ``perfect_localization`` is on so navigation can run before
 localization exists: at 10 Hz, future-dated by 0.1 s as AMCL's ``transform_tolerance``
-does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
+does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu``, ``/ground_truth``, the
+3-D lidar's PointCloud2 when the profile enables one (``/velodyne_points``),
 (the true pose in ``map``), and when enabled ``/gps/fix`` (NavSatFix), ``/gps/vel`` (ENU
 velocity, TwistWithCovarianceStamped) and ``/imu/mag`` (MagneticField) -- topic names
 from the profile.  Each sensor runs on its own timer at its configured rate.
+
+``wired`` names the parts that talk to the stack through a vehicle link instead
+(hardware-in-the-loop: :mod:`navstack.sim.vehicles`): ``"base"`` -- the robot takes its
+motion from the simulated vehicle's firmware, not from ``/cmd_vel``; ``"odometry"``,
+``"imu"``, ``"gnss"``, ``"magnetometer"`` -- the vehicle samples them and sends them over
+the wire, so the node does not publish them (nor, without its own odometry,
+``odom -> base_link`` or the perfect ``map -> odom``).  Static mounts are still published.
 """
 
 from __future__ import annotations
+
+from collections.abc import Collection
 
 from navstack.core.msgs import (
     Clock,
@@ -28,6 +38,7 @@ from navstack.core.msgs import (
     NavSatFix,
     Odometry,
     Point,
+    PointCloud2,
     Pose,
     Pose2D,
     TFMessage,
@@ -50,8 +61,14 @@ class SimulatorNode(Node):
     """Runs :class:`Simulator` physics at ``physics_rate_hz`` and publishes its sensors."""
 
     def __init__(self, runtime: Runtime, sim: Simulator, physics_rate_hz: float = 50.0,
-                 perfect_localization: bool = True, name: str = "simulator") -> None:
+                 perfect_localization: bool = True, name: str = "simulator",
+                 wired: Collection[str] = ()) -> None:
         super().__init__(name, runtime)
+        unknown = set(wired) - WIRED_PARTS
+        if unknown:
+            raise ValueError(f"wired: unknown {sorted(unknown)}; choose from "
+                             f"{sorted(WIRED_PARTS)}")
+        self.wired = frozenset(wired)
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
@@ -74,13 +91,18 @@ class SimulatorNode(Node):
         self.pub_scan = self.create_publisher("/scan", LaserScan, SENSOR_DATA)
         self.pub_imu = self.create_publisher("/imu", Imu, SENSOR_DATA)
         self.pub_truth = self.create_publisher("/ground_truth", Odometry, QoS(depth=10))
-        self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
+        if "base" not in self.wired:
+            self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
         sensors = self.sim.robot.sensors
         if self.sim.lidar is not None:
             self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
-        if self.sim.odometry is not None:
+        if self.sim.lidar3d is not None:
+            self.pub_cloud = self.create_publisher(_topic(sensors.lidar3d.topic), PointCloud2,
+                                                   SENSOR_DATA)
+            self.create_timer(1.0 / sensors.lidar3d.rate_hz, self._cloud)
+        if self.sim.odometry is not None and "odometry" not in self.wired:
             self.create_timer(1.0 / sensors.odometry.rate_hz, self._odom)
-        if self.sim.imu is not None:
+        if self.sim.imu is not None and "imu" not in self.wired:
             self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
         if sensors.ground_truth.enabled:
             self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
@@ -90,13 +112,13 @@ class SimulatorNode(Node):
                 self.pub_obstacles = self.create_publisher("/sim/obstacles", MarkerArray,
                                                            QoS(depth=1))
                 self.create_timer(OBSTACLES_PERIOD, self._obstacles)
-        if self.sim.gnss is not None:
+        if self.sim.gnss is not None and "gnss" not in self.wired:
             self.pub_fix = self.create_publisher(_topic(sensors.gnss.topic), NavSatFix,
                                                  SENSOR_DATA)
             self.pub_gps_vel = self.create_publisher(_topic(sensors.gnss.velocity_topic),
                                                      TwistWithCovarianceStamped, SENSOR_DATA)
             self.create_timer(1.0 / sensors.gnss.rate_hz, self._gnss)
-        if self.sim.magnetometer is not None:
+        if self.sim.magnetometer is not None and "magnetometer" not in self.wired:
             self.pub_mag = self.create_publisher(_topic(sensors.magnetometer.topic),
                                                  MagneticField, SENSOR_DATA)
             self.create_timer(1.0 / sensors.magnetometer.rate_hz, self._mag)
@@ -111,6 +133,8 @@ class SimulatorNode(Node):
             static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
         if self.sim.imu is not None:
             static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
+        if self.sim.lidar3d is not None:
+            static.append(self._static_tf(sensors.lidar3d.frame_id, sensors.lidar3d.mount))
         if self.sim.gnss is not None:
             static.append(self._static_tf(sensors.gnss.frame_id, sensors.gnss.mount))
         if self.sim.magnetometer is not None:
@@ -123,7 +147,8 @@ class SimulatorNode(Node):
                                               Marker.LINE_STRIP,
                                               points=(*outline, outline[0])))
         self._last_imu_t = self.now
-        self._odom()
+        if "odometry" not in self.wired:
+            self._odom()
 
     def _static_tf(self, frame: str, mount: object) -> TransformStamped:
         m = mount
@@ -154,6 +179,12 @@ class SimulatorNode(Node):
         if scan is not None:
             self.scans_published += 1
             self.pub_scan.publish(scan)
+
+    def _cloud(self) -> None:
+        self.advance()
+        cloud = self.sim.point_cloud(self.now)
+        if cloud is not None:
+            self.pub_cloud.publish(cloud)
 
     def _odom(self) -> None:
         self.advance()
@@ -221,6 +252,9 @@ class SimulatorNode(Node):
                                   pose=Pose(Point(x, y, 0.0), Quaternion.from_yaw(heading)),
                                   scale=scale))
         self.pub_obstacles.publish(MarkerArray(tuple(markers)))
+
+
+WIRED_PARTS = frozenset({"base", "odometry", "imu", "gnss", "magnetometer"})
 
 
 def _topic(name: str) -> str:

@@ -60,21 +60,25 @@ def test_estop_gate_latches_the_mux_lock_and_zeroes_the_base_at_the_same_instant
     for t, vx, wz in seen:
         last[t] = (vx, wz)
     assert last == {0.0: (0.4, 0.0), 0.05: (0.0, 0.0), 0.1: (0.0, 0.0), 0.2: (0.0, 0.0)}
-    assert gate.overrides == 3 and gate.latched and gate.latched_at == 0.05
+    # zeros the base got while latched: the mux's and the gate's at the latch, and the
+    # mux's answers to the masked inputs at 0.1 and 0.2 s
+    assert gate.overrides == 4 and gate.latched and gate.latched_at == 0.05
     assert gate.latch("again") == 0.05  # idempotent: keeps the first latch time
     assert gate.release() == 0.25
     rt.scheduler.run_until(0.75)  # teleop (priority 100, sent at 0.2 s) has timed out
     nav.publish(_cmd(0.25))
     rt.scheduler.run_until(0.8)
-    assert seen[-1] == (0.75, 0.25, 0.0) and gate.overrides == 3
+    assert seen[-1] == (0.75, 0.25, 0.0) and gate.overrides == 4
     assert gate.state() == {"latched": False, "latched_at": 0.05, "released_at": 0.25,
-                            "reason": "", "holder": "", "overrides": 3}
+                            "reason": "", "holder": "", "overrides": 4,
+                            "refused_releases": 0}
     other = EStopClient(rt, "telegram:7")
     other.latch("from the chat")
     rt.scheduler.run_until(0.85)
     assert gate.latched and gate.state()["holder"] == "telegram:7"
     with pytest.raises(EStopReleaseRefused, match="held by 'telegram:7'"):
         gate.release()
+    assert gate.state()["refused_releases"] == 1
 
 
 def test_runner_paces_runs_commands_in_its_thread_and_stops() -> None:

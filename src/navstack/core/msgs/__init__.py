@@ -5,6 +5,12 @@ seconds.  ``runtime/`` converts to ROS time and CDR at the boundary.
 """
 
 from navstack.core.msgs.command_msgs import CollisionMonitorState, Joy, Range
+from navstack.core.msgs.diagnostic_msgs import (
+    DiagnosticArray,
+    DiagnosticStatus,
+    KeyValue,
+    NavigationHold,
+)
 from navstack.core.msgs.geometry_msgs import (
     Point,
     Polygon,
@@ -28,6 +34,7 @@ from navstack.core.msgs.nav2_msgs import CostmapFilterInfo, SpeedLimit
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
+    JointState,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -39,6 +46,8 @@ from navstack.core.msgs.sensor_msgs import (
     Odometry,
     Path,
     PointCloud,
+    PointCloud2,
+    PointField,
     TFMessage,
 )
 from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
@@ -49,10 +58,14 @@ __all__ = [
     "CollisionMonitorState",
     "ColorRGBA",
     "CostmapFilterInfo",
+    "DiagnosticArray",
+    "DiagnosticStatus",
     "Float64",
     "Header",
     "Imu",
+    "JointState",
     "Joy",
+    "KeyValue",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -60,11 +73,14 @@ __all__ = [
     "MarkerArray",
     "NavSatFix",
     "NavSatStatus",
+    "NavigationHold",
     "OccupancyGrid",
     "Odometry",
     "Path",
     "Point",
     "PointCloud",
+    "PointCloud2",
+    "PointField",
     "Polygon",
     "Pose",
     "Pose2D",

@@ -42,14 +42,24 @@ def demo(
     port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1 while the mission runs.")] = False,
     foxglove_port: Annotated[int, port_option("--foxglove-port",
                                               help="Foxglove WebSocket port.")] = 8765,
     rate: Annotated[float, rate_option("Real-time factor with --web/--foxglove "
                                        "(simulated seconds per wall second).")] = 1.0,
+    link: Annotated[str | None, typer.Option(
+        help="Drive the simulator through the robot's vehicle link: udp (rover VCU on "
+             "loopback) or serial (golf cart Arduinos on ptys).")] = None,
 ) -> None:
     """Flagship mission: visit named waypoints in order in the simulator, write a report.
 
@@ -65,16 +75,26 @@ def demo(
         raise fail(f"--record: {bag} already exists (from an earlier run); add --force to "
                    "replace it, or choose another --out")
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
+    if link not in (None, "udp", "serial"):
+        raise fail(f"--link must be udp or serial, got {link!r}")
     try:
         with stop_on_sigterm():
             report = run_demo(out, seed, world, robot, waypoints, record=record,
                               replace_bag=force,
-                              attach=attach_to_demo(live) if live.enabled else None)
+                              attach=attach_to_demo(live) if live.enabled else None,
+                              link=link)  # type: ignore[arg-type]
     except NavstackError as exc:
         raise fail(str(exc)) from None
     if "bag" in report:
         typer.echo(f"recorded {report['bag']['messages']} messages to {report['bag']['path']}")
+    if "link" in report:
+        lat = report["link"]["command_latency"]
+        typer.echo(f"vehicle link ({report['link']['kind']}, {report['link']['vehicle']}): "
+                   f"{report['link']['commands_sent']} commands, added command latency p50 "
+                   f"{lat['p50_ms']:.3f} ms, p95 {lat['p95_ms']:.3f} ms, max "
+                   f"{lat['max_ms']:.3f} ms; link losses {report['link']['link_losses']}")
     verdict = "SUCCESS" if report["success"] else "FAILURE"
     moving = report["min_clearance_moving_m"]
     walkers = f", to walkers {moving:.2f} m" if moving is not None else ""
@@ -102,8 +122,15 @@ def run(
     port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1.")] = False,
     foxglove_port: Annotated[int, port_option("--foxglove-port",
@@ -120,7 +147,8 @@ def run(
     from navstack.interfaces.stack_description import LocalizationName
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     if not live.enabled:
         raise fail("nothing to watch: add --web and/or --foxglove")
     if stack_file is not None and (amcl or slam):
