@@ -156,3 +156,51 @@ def test_most_restrictive_zone_wins_and_stop_ends_evaluation() -> None:
 def test_bad_sections_name_the_key(section: dict[str, object], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         collision_monitor_params(section, file="nav2.yaml")
+
+
+def test_offset_polygon_moves_every_edge_out_by_the_padding() -> None:
+    from navstack.control.collision_monitor import offset_polygon
+
+    square = np.array([[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]])  # CCW
+    assert np.allclose(offset_polygon(square, 0.1), square * 1.5)
+    assert np.allclose(offset_polygon(square[::-1], 0.1), square[::-1] * 1.5)  # CW
+    disc = offset_polygon(BODY, 0.12)  # the round body's polygon: edges 0.12 m further
+    mid = (disc + np.roll(disc, -1, axis=0)) / 2.0
+    body_mid = (BODY + np.roll(BODY, -1, axis=0)) / 2.0
+    assert np.allclose(np.hypot(*mid.T) - np.hypot(*body_mid.T), 0.12)
+
+
+def test_padded_footprint_zone_sees_only_its_sources() -> None:
+    mon = CollisionMonitor(collision_monitor_params({
+        "polygons": ["Body", "Moving"],
+        "Body": {"type": "polygon", "action_type": "approach", "footprint_topic": "/fp",
+                 "min_points": 1, "sources_names": ["walls"]},
+        "Moving": {"type": "polygon", "action_type": "approach", "footprint_topic": "/fp",
+                   "footprint_padding": 0.12, "min_points": 1, "sources_names": ["people"]},
+        "observation_sources": ["walls", "people"],
+        "walls": {"type": "scan", "topic": "/scan"},
+        "people": {"type": "scan", "topic": "/scan", "exclude_map_obstacles": 0.15}}), BODY)
+    cmd = Twist2D(0.3, 0.0, 0.0)
+    near = np.array([[0.30, 0.0]])  # 0.10 m ahead of the 0.2 m body
+    # a wall point 0.1 m ahead: only the body zone checks it -- reached after 0.33 s
+    res = mon.process(cmd, {"walls": near, "people": np.zeros((0, 2))})
+    assert res.action is ActionType.APPROACH and res.polygon == "Body"
+    assert res.cmd.vx == pytest.approx(0.3 * 0.3 / 2.0)  # Jazzy default: 2 s
+    # the same point as a person: already inside the padded zone, so driving on stops
+    res = mon.process(cmd, {"walls": np.zeros((0, 2)), "people": near})
+    assert res == type(res)(Twist2D(), ActionType.APPROACH, "Moving")
+    # one array: every zone sees every point
+    assert mon.process(cmd, near).polygon == "Moving"
+
+
+def test_sources_names_and_padding_are_checked() -> None:
+    with pytest.raises(ConfigError, match=r"Stop\.sources_names: unknown source 'lidar' "
+                                          r"\(name sources listed in observation_sources: "
+                                          r"\['scan'\]\)"):
+        collision_monitor_params({"polygons": ["Stop"], "observation_sources": ["scan"],
+                                  "Stop": {"type": "circle", "radius": 0.3,
+                                           "action_type": "stop", "sources_names": ["lidar"]},
+                                  "scan": {"type": "scan", "topic": "/scan"}})
+    with pytest.raises(ConfigError, match="footprint_padding pads the robot's footprint"):
+        PolygonParams.from_mapping({"type": "polygon", "action_type": "stop", "points": BOX,
+                                    "footprint_padding": 0.1})

@@ -142,3 +142,42 @@ def test_pointcloud_heights_and_range_arcs_are_sources() -> None:
     r.drive(0.35, 0.4)
     r.rt.scheduler.run_until(0.4)
     assert r.out[-1][1] == 0.4  # beyond max_range: no obstacle
+
+
+def test_a_source_without_the_map_obstacles_keeps_the_padded_zone_off_the_walls() -> None:
+    """The packaged pair of zones: the body against every point, the body + 0.12 m against
+    the points the map does not explain.  A wall on the map 0.05 m beside the padded
+    zone's reach does not slow the robot; a person the same distance ahead does."""
+    from navstack.core.msgs import MapMetaData, OccupancyGrid, Point, Pose
+
+    section = {
+        "observation_sources": ["scan", "scan_unmapped"], "source_timeout": 0.0,
+        "scan": {"type": "scan", "topic": "/scan"},
+        "scan_unmapped": {"type": "scan", "topic": "/scan", "exclude_map_obstacles": 0.15},
+        "polygons": ["FootprintApproach", "MovingApproach"],
+        "FootprintApproach": {"type": "polygon", "action_type": "approach",
+                              "footprint_topic": "/fp", "min_points": 1,
+                              "time_before_collision": 1.2, "sources_names": ["scan"]},
+        "MovingApproach": {"type": "polygon", "action_type": "approach",
+                           "footprint_topic": "/fp", "footprint_padding": 0.12,
+                           "min_points": 1, "time_before_collision": 1.2,
+                           "sources_names": ["scan_unmapped"]}}
+    r = Rig(section)
+    r.rt.tf.add_static("map", "odom", Pose2D(1.0, 2.0, 0.0))  # base_link at (1, 2)
+    occupied = np.zeros((80, 80), dtype=np.int8)  # 0.05 m cells from (0, 0)
+    occupied[:, 27] = 100  # a wall along x = 1.35..1.40: 0.35 m ahead of the robot
+    grid = OccupancyGrid(Header(0.0, "map"), MapMetaData(0.0, 0.05, 80, 80, Pose(Point())),
+                         occupied)
+    r.sensor("/map", OccupancyGrid, 0.0, grid)
+    r.sensor("/scan", LaserScan, 0.01, scan_with_obstacle_at(0.36, 0.01))  # the wall's face
+    r.drive(0.05, 0.2, wz=0.0)
+    r.rt.scheduler.run_until(0.2)
+    # the body reaches the wall after 0.4 s at 0.4 m/s: the body zone scales (t = 0.3 s)
+    assert [vx for _, vx, _ in r.out] == pytest.approx([0.4 * 0.3 / 1.2] * 4)
+    assert r.node.last.polygon == "FootprintApproach"
+    r.rt.tf.add_static("map", "odom", Pose2D(0.5, 2.0, 0.0))  # the robot 0.5 m further back
+    r.sensor("/scan", LaserScan, 0.25, scan_with_obstacle_at(0.36, 0.25))  # not on the map
+    r.drive(0.3, 0.3, wz=0.0)
+    r.rt.scheduler.run_until(0.3)
+    # a person 0.16 m ahead of the body: inside the padded zone (0.32 m) after 0.1 s
+    assert r.out[-1][1] == 0.0 and r.node.last.polygon == "MovingApproach"

@@ -78,6 +78,12 @@ class PolygonParams(Params):
     """Nav2: take the polygon from the costmap's published footprint (the robot's outline
     padded by the costmap's ``footprint_padding``).  navstack: that padded footprint, given
     to the monitor when the stack is built (``type: polygon`` without ``points``)."""
+    footprint_padding: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+    """[m] navstack: grow a ``footprint_topic`` polygon by this much (every edge moved
+    outward; Nav2 takes the costmap's footprint with the costmap's ``footprint_padding``).
+    Only with ``footprint_topic``."""
+    sources_names: list[str] | None = None
+    """Nav2 Jazzy: the observation sources this polygon checks (default: all)."""
     min_points: int = Field(4, ge=1)
     slowdown_ratio: float = Field(0.5, ge=0.0, le=1.0)
     linear_limit: float = Field(0.5, ge=0.0)
@@ -115,6 +121,10 @@ class PolygonParams(Params):
                                  "robot's footprint)")
             if self.points is not None and len(self.points) < 3:
                 raise ValueError(f"a polygon needs at least 3 points, got {len(self.points)}")
+        if self.footprint_padding > 0.0 and (self.type != "polygon" or self.points is not None
+                                             or not self.footprint_topic):
+            raise ValueError("footprint_padding pads the robot's footprint: only for a "
+                             "polygon given by 'footprint_topic' (without 'points')")
         return self
 
 
@@ -132,6 +142,12 @@ class SourceParams(Params):
     """Per-source override of the top-level ``source_timeout`` (Nav2 Iron+)."""
     transform_tolerance: float | None = Field(None, ge=0.0)
     use_global_height: bool = False
+    exclude_map_obstacles: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+    """[m] navstack: drop the points within this distance of an occupied cell of the map
+    (``map_topic``, located through ``map_frame_id``), keeping what the map does not
+    explain -- people, carts, new obstacles.  0 keeps every point (Nav2)."""
+    map_topic: str = "/map"
+    map_frame_id: str = "map"
 
 
 class CollisionMonitorParams(Params):
@@ -183,6 +199,15 @@ def collision_monitor_params(section: Mapping[str, Any], *, file: str = "",
                                   key_path=f"{key_path}.{name}",
                                   suggestion=f"add '{name}: {{type: ...}}' beside the list")
             sections[target][name] = body
+    for name, body in sections["polygon_params"].items():
+        chosen = body.get("sources_names")
+        if isinstance(chosen, list):
+            unknown = [str(n) for n in chosen if n not in sources]
+            if unknown:
+                raise ConfigError(
+                    f"unknown source {unknown[0]!r}", file=file,
+                    key_path=f"{key_path}.{name}.sources_names",
+                    suggestion=f"name sources listed in observation_sources: {sources}")
     out: dict[str, Any] = {}
     for target in ("polygon_params", "source_params"):
         model = PolygonParams if target == "polygon_params" else SourceParams
@@ -195,6 +220,22 @@ def _vel_less(a: Twist2D, b: Twist2D) -> bool:
     """Nav2 ``Velocity::operator<``: slower linear speed, then slower |wz|."""
     va, vb = math.hypot(a.vx, a.vy), math.hypot(b.vx, b.vy)
     return va < vb or (va == vb and abs(a.wz) < abs(b.wz))
+
+
+def offset_polygon(vertices: FloatArray, distance: float) -> FloatArray:
+    """A convex polygon with every edge moved ``distance`` outward (its vertices moved
+    along the bisector of the adjacent edges' normals by ``distance / cos(half-angle)``).
+    Either winding order."""
+    v = np.asarray(vertices, dtype=np.float64)
+    area2 = float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+    edge = np.roll(v, -1, axis=0) - v  # edge i: v_i -> v_(i+1)
+    normal = np.column_stack((edge[:, 1], -edge[:, 0]))  # right normal: outward if CCW
+    normal /= np.maximum(np.hypot(normal[:, 0], normal[:, 1]), 1e-12)[:, None]
+    if area2 < 0.0:
+        normal = -normal
+    n_in, n_out = np.roll(normal, 1, axis=0), normal  # edges ending and starting at v_i
+    scale = distance / np.maximum(1.0 + np.sum(n_in * n_out, axis=1), 1e-6)
+    return np.asarray(v + (n_in + n_out) * scale[:, None])
 
 
 class ZonePolygon:
@@ -211,6 +252,8 @@ class ZonePolygon:
             if pts.ndim != 2 or len(pts) < 3:
                 raise ConfigError(f"polygon '{name}' uses the robot footprint, but none was "
                                   "given", key_path=name)
+            if params.footprint_padding > 0.0:
+                pts = offset_polygon(pts, params.footprint_padding)
             self.vertices: FloatArray = pts
             self.radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])))
         else:
@@ -331,17 +374,19 @@ class CollisionMonitor:
         self.zones = [ZonePolygon(n, params.polygon_params[n], footprint)
                       for n in params.polygons]
 
-    def process(self, cmd: Twist2D, points_base: FloatArray,
+    def process(self, cmd: Twist2D, points_base: FloatArray | Mapping[str, FloatArray],
                 invalid_source: str = "") -> MonitorResult:
-        """The safe command for ``cmd`` given the ``(N, 2)`` sensed points in base_link.
-        ``invalid_source`` names a stale or missing source: the robot stops."""
+        """The safe command for ``cmd`` given the sensed points in base_link: one
+        ``(N, 2)`` array, or an array per source name (polygons with ``sources_names``
+        see only theirs).  ``invalid_source`` names a stale or missing source: the robot
+        stops."""
         if invalid_source:
             return MonitorResult(Twist2D(), ActionType.STOP, invalid_source)
         best = MonitorResult(cmd, ActionType.DO_NOTHING)
         for zone in self.zones:
             if not zone.params.enabled:
                 continue
-            safe = zone.safe_velocity(cmd, points_base)
+            safe = zone.safe_velocity(cmd, _points_for(zone, points_base))
             if safe is None:
                 continue
             action = _ACTIONS[zone.params.action_type]
@@ -350,3 +395,11 @@ class CollisionMonitor:
             if _vel_less(safe, best.cmd):
                 best = MonitorResult(safe, action, zone.name)
         return best
+
+
+def _points_for(zone: ZonePolygon, points: FloatArray | Mapping[str, FloatArray]) -> FloatArray:
+    if not isinstance(points, Mapping):
+        return points
+    names = zone.params.sources_names
+    chunks = [a for n, a in points.items() if (names is None or n in names) and len(a)]
+    return np.vstack(chunks) if chunks else np.zeros((0, 2))

@@ -9,6 +9,13 @@ points are kept in ``odom_frame_id`` at their stamp and brought into ``base_fram
 the command's time (``base_shift_correction``: the robot's motion since the sensor took
 the data is accounted for), else into the base frame with the latest transform.
 
+A source with ``exclude_map_obstacles`` (navstack) drops, when its data arrives, the points
+within that distance of an occupied cell of the map (``map_topic``, through the
+``map_frame_id`` -> sensor transform at the data's stamp): what is left is what the map
+does not explain (people, carts, a dropped box).  A polygon that checks only such a source
+(``sources_names``) keeps its distance from those and ignores door frames.  Until the map
+and the transform are known every point is kept.
+
 A source whose newest data is older than its ``source_timeout`` (or that never sent any)
 stops the robot while it is stale.  After a stop the output is zero for
 ``stop_pub_timeout`` seconds and then quiet until the action changes (Nav2).  The action
@@ -24,6 +31,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from navstack.control.collision_monitor import (
     ActionType,
@@ -36,13 +44,14 @@ from navstack.core.geometry import se2_apply
 from navstack.core.msgs import (
     CollisionMonitorState,
     LaserScan,
+    OccupancyGrid,
     PointCloud,
     Range,
     Twist,
     Twist2D,
 )
 from navstack.core.polygon import Footprint
-from navstack.runtime.bus import SENSOR_DATA, QoS
+from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 
 __all__ = ["CollisionMonitorNode"]
@@ -71,6 +80,7 @@ class CollisionMonitorNode(Node):
         """How many commands each polygon (or stale source) changed."""
         self.slowed = 0
         self._stop_since: float | None = None
+        self._maps: dict[str, _MapDistance] = {}  # map topic -> distance to occupied
 
     def on_configure(self) -> None:
         p = self.params
@@ -84,6 +94,10 @@ class CollisionMonitorNode(Node):
             cb = self._source_cb(name)
             kind = {"scan": LaserScan, "pointcloud": PointCloud, "range": Range}[src.type]
             self.create_subscription(src.topic, kind, cb, SENSOR_DATA)
+            if src.exclude_map_obstacles > 0.0 and src.map_topic not in self._maps:
+                self._maps[src.map_topic] = _MapDistance()
+                self.create_subscription(src.map_topic, OccupancyGrid,
+                                         self._maps[src.map_topic].update, LATCHED)
         self.create_subscription(p.cmd_vel_in_topic, Twist, self._on_cmd, QoS(depth=1))
 
     def on_activate(self) -> None:
@@ -104,6 +118,8 @@ class CollisionMonitorNode(Node):
         else:
             pts = _range_points(msg, src.obstacles_angle)
         frame, stamp = msg.header.frame_id or self.params.base_frame_id, msg.header.stamp
+        if src.exclude_map_obstacles > 0.0 and len(pts):
+            pts = self._unexplained(pts, frame, stamp, name)
         target = self.params.odom_frame_id if self.params.base_shift_correction else None
         if target is not None:
             try:  # keep the points where they were when sensed
@@ -117,25 +133,41 @@ class CollisionMonitorNode(Node):
         else:
             self.data[name] = _Data(pts, frame, stamp)
 
-    def _points(self) -> tuple[FloatArray, str]:
-        """All fresh points in the base frame, or the name of a stale source."""
+    def _unexplained(self, pts: FloatArray, frame: str, stamp: float,
+                     name: str) -> FloatArray:
+        """``pts`` (in ``frame``) without those the map explains (module docstring)."""
+        src = self.params.source_params[name]
+        field = self._maps[src.map_topic]
+        if field.distance is None:
+            return pts
+        try:
+            pose = self.tf.lookup_pose2d(src.map_frame_id, frame, stamp)
+        except TransformError:
+            try:
+                pose = self.tf.lookup_pose2d(src.map_frame_id, frame)
+            except TransformError:
+                return pts
+        return pts[field.at(se2_apply(pose.as_array(), pts)) > src.exclude_map_obstacles]
+
+    def _points(self) -> tuple[dict[str, FloatArray], str]:
+        """Fresh points per source in the base frame, or the name of a stale source."""
         p, now = self.params, self.now
-        chunks = []
+        chunks: dict[str, FloatArray] = {}
         for name in p.observation_sources:
             src = p.source_params[name]
             if not src.enabled:
                 continue
             data, timeout = self.data[name], p.source_timeout_of(name)
             if timeout > 0.0 and (data is None or now - data.stamp > timeout):
-                return np.zeros((0, 2)), f"{name} (stale source)"
+                return {}, f"{name} (stale source)"
             if data is None or len(data.points) == 0:
                 continue
             try:
                 pose = self.tf.lookup_pose2d(p.base_frame_id, data.frame)
             except TransformError:
-                return np.zeros((0, 2)), f"{name} (no transform)"
-            chunks.append(se2_apply(pose.as_array(), data.points))
-        return (np.vstack(chunks) if chunks else np.zeros((0, 2))), ""
+                return {}, f"{name} (no transform)"
+            chunks[name] = se2_apply(pose.as_array(), data.points)
+        return chunks, ""
 
     # --- commands ----------------------------------------------------------------------------
     def _on_cmd(self, msg: Twist) -> None:
@@ -163,6 +195,36 @@ class CollisionMonitorNode(Node):
         """For dashboards: the current action, its polygon and counts per polygon."""
         return {"action": self.last.action.name.lower(), "polygon": self.last.polygon,
                 "actions": dict(self.actions), "slowed": self.slowed}
+
+
+class _MapDistance:
+    """Distance [m] from every cell of the latest map to its nearest occupied cell
+    (occupancy >= 65, map_server's occupied_thresh); outside the map: infinite."""
+
+    def __init__(self) -> None:
+        self.distance: FloatArray | None = None
+        self.grid: OccupancyGrid | None = None
+
+    def update(self, grid: OccupancyGrid) -> None:
+        occupied = np.asarray(grid.data) >= 65
+        self.grid = grid
+        self.distance = (np.asarray(ndimage.distance_transform_edt(~occupied),
+                                    dtype=np.float64) * grid.info.resolution
+                         if occupied.any() else np.full(occupied.shape, np.inf))
+
+    def at(self, xy_map: FloatArray) -> FloatArray:
+        assert self.grid is not None and self.distance is not None
+        info = self.grid.info
+        o = info.origin.to_pose2d()
+        c, s = math.cos(o.theta), math.sin(o.theta)
+        dx, dy = xy_map[:, 0] - o.x, xy_map[:, 1] - o.y
+        col = np.floor((c * dx + s * dy) / info.resolution).astype(np.int64)
+        row = np.floor((-s * dx + c * dy) / info.resolution).astype(np.int64)
+        h, w = self.distance.shape
+        inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
+        out = np.full(len(xy_map), np.inf)
+        out[inside] = self.distance[row[inside], col[inside]]
+        return out
 
 
 def _range_points(msg: Range, step: float) -> FloatArray:
