@@ -28,11 +28,7 @@ def test_file_without_sections_gets_robot_limits_and_body_approach() -> None:
     assert sm.max_velocity == (2.5, 0.0, 1.0) and sm.min_velocity == (-0.35, 0.0, -1.0)
     assert sm.max_accel == (1.0, 0.0, 20.0)  # Ackermann: yaw rate not rate limited
     assert chain.behavior_server["cmd_vel_topic"] == "/cmd_vel_nav"
-    monitor = chain.collision_monitor
-    assert monitor.polygons == ["FootprintApproach", "MovingApproach"]
-    assert monitor.polygon_params["MovingApproach"].footprint_padding == 0.12
-    assert monitor.polygon_params["MovingApproach"].sources_names == ["scan_unmapped"]
-    assert monitor.source_params["scan_unmapped"].exclude_map_obstacles == 0.15
+    assert chain.collision_monitor.polygons == ["FootprintApproach"]
     assert chain.twist_mux.topics[0].topic == "/nav_vel"
 
 

@@ -8,8 +8,8 @@ base.  A Nav2 parameter file's ``velocity_smoother``, ``collision_monitor`` and
 * velocity smoother: the robot profile's limits (``max_vel_x``, ``min_vel_x``,
   ``max_vel_theta``, ``acc_lim_x``, ``acc_lim_theta``; an Ackermann base's yaw rate
   follows its steering, so its ``wz`` is not rate limited here);
-* collision monitor: an ``approach`` zone on the robot body on ``/scan``, and one on the
-  body grown by 0.12 m on the scan points the map does not explain (people);
+* collision monitor: an ``approach`` zone on the robot body (the stack's monitor before
+  issue 18) on ``/scan``;
 * twist_mux: navigation (``/nav_vel``, priority 10), keyboard (``/key_vel``, 90), joystick
   (``/joy_vel``, 100), all 0.5 s, and the e-stop lock ``/emergency_stop`` (255, 0.0).
 
@@ -42,19 +42,13 @@ BASE_TOPIC = "/cmd_vel"
 DEFAULT_MONITOR: dict[str, Any] = {
     "cmd_vel_in_topic": "/cmd_vel_smoothed", "cmd_vel_out_topic": "/nav_vel",
     "source_timeout": 1.0,
-    "polygons": ["FootprintApproach", "MovingApproach"],
+    "polygons": ["FootprintApproach"],
     "FootprintApproach": {"type": "polygon", "action_type": "approach",
                           "footprint_topic": "/local_costmap/published_footprint",
                           "time_before_collision": 1.2, "simulation_time_step": 0.1,
-                          "min_points": 1, "sources_names": ["scan"]},
-    "MovingApproach": {"type": "polygon", "action_type": "approach",
-                       "footprint_topic": "/local_costmap/published_footprint",
-                       "footprint_padding": 0.12, "time_before_collision": 1.2,
-                       "simulation_time_step": 0.1, "min_points": 1,
-                       "sources_names": ["scan_unmapped"]},
-    "observation_sources": ["scan", "scan_unmapped"],
+                          "min_points": 1},
+    "observation_sources": ["scan"],
     "scan": {"type": "scan", "topic": "/scan"},
-    "scan_unmapped": {"type": "scan", "topic": "/scan", "exclude_map_obstacles": 0.15},
 }
 
 DEFAULT_MUX: dict[str, Any] = {
