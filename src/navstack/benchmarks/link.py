@@ -13,10 +13,9 @@ hardware-in-the-loop demos against their in-process twins.
    process with the same seed; metrics: success, collisions, the command latency the
    demo measured (p95), and the trajectory deviation -- the largest distance from a
    point of either trajectory to the other's path (symmetric Hausdorff distance over
-   0.1 s samples), budget 0.3 m.  The cart's Smac planner stops a search after
-   ``max_planning_time`` of *wall* time (5 s, Nav2's semantics), which makes two
-   in-process runs differ on a loaded machine; both runs of the comparison get 120 s so
-   only the link can make them differ.
+   0.1 s samples), budget 0.3 m.  Both runs plan deterministically: on simulated time
+   the planners count ``max_planning_time`` in expansions, not wall seconds
+   (:mod:`navstack.planning.budget`), so only the link can make them differ.
 
 The wall-clock figures depend on the machine's load; the 1-minute load average is
 recorded in the notes.
@@ -34,7 +33,6 @@ from typing import Any
 import numpy as np
 
 from navstack.benchmarks.common import BenchResult
-from navstack.core.config_files import load_yaml
 from navstack.drivers.errors import MalformedPacket
 from navstack.drivers.framing import FixedFramer
 from navstack.drivers.golf_cart import (
@@ -45,7 +43,7 @@ from navstack.drivers.golf_cart import (
 )
 from navstack.drivers.rover_vcu import decode_vcu_command, encode_vcu_command
 from navstack.drivers.transport import SerialTransport, Transport, UdpTransport
-from navstack.interfaces.demo import demo_setup, run_demo
+from navstack.interfaces.demo import run_demo
 from navstack.sim.vehicles.far_side import FarSide
 from navstack.sim.vehicles.pty import PtyMasterTransport
 
@@ -130,29 +128,13 @@ def trajectory_deviation(a: np.ndarray, b: np.ndarray) -> float:
     return max(to_path(a, b), to_path(b, a))
 
 
-def _deterministic_params(robot: str, out: Path) -> Path:
-    """The robot's Nav2 file with Smac's wall-clock budget lifted (module docstring)."""
-    import yaml
-
-    setup = demo_setup(robot)
-    params = load_yaml(setup.nav2_params) if setup.nav2_params else {}
-    grid = params.get("planner_server", {}).get("ros__parameters", {}).get("GridBased", {})
-    if "Smac" in str(grid.get("plugin", "")):
-        grid["max_planning_time"] = 120.0
-    path = out / f"{robot}_nav2_params.yaml"
-    path.write_text(yaml.safe_dump(params))
-    return path
-
-
 def compare_demo(robot: str, link: str, out: Path, seed: int = 1) -> dict[str, Any]:
     """The demo in process and through ``link``; success, collisions, deviation, latency."""
-    params = _deterministic_params(robot, out)
     t0 = time.perf_counter()
-    ref = run_demo(out / f"{robot}-inproc", seed, robot=robot, show_progress=False,
-                   nav2_params=params)
+    ref = run_demo(out / f"{robot}-inproc", seed, robot=robot, show_progress=False)
     t1 = time.perf_counter()
     hil = run_demo(out / f"{robot}-{link}", seed, robot=robot, show_progress=False,
-                   link=link, nav2_params=params)  # type: ignore[arg-type]
+                   link=link)  # type: ignore[arg-type]
     t2 = time.perf_counter()
     a = np.loadtxt(out / f"{robot}-inproc" / "trajectory.csv", delimiter=",", skiprows=1)
     b = np.loadtxt(out / f"{robot}-{link}" / "trajectory.csv", delimiter=",", skiprows=1)
