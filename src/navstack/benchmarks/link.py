@@ -23,6 +23,7 @@ recorded in the notes.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import threading
@@ -33,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from navstack.benchmarks.common import BenchResult
+from navstack.core.msgs import Pose2D
 from navstack.drivers.errors import MalformedPacket
 from navstack.drivers.framing import FixedFramer
 from navstack.drivers.golf_cart import (
@@ -46,6 +48,7 @@ from navstack.drivers.transport import SerialTransport, Transport, UdpTransport
 from navstack.interfaces.demo import run_demo
 from navstack.sim.vehicles.far_side import FarSide
 from navstack.sim.vehicles.pty import PtyMasterTransport
+from navstack.sim.worlds import load_world
 
 LATENCY_BUDGET_MS = 5.0
 DEVIATION_BUDGET_M = 0.3
@@ -128,25 +131,61 @@ def trajectory_deviation(a: np.ndarray, b: np.ndarray) -> float:
     return max(to_path(a, b), to_path(b, a))
 
 
-def compare_demo(robot: str, link: str, out: Path, seed: int = 1) -> dict[str, Any]:
-    """The demo in process and through ``link``; success, collisions, deviation, latency."""
+SENSITIVITY_OFFSET_M = 0.001
+"""How far the sensitivity run's spawn moves the robot forward [m]."""
+
+
+def compare_demo(robot: str, link: str, out: Path, seed: int = 1,
+                 sensitivity: bool = True) -> dict[str, Any]:
+    """The demo in process and through ``link``; success, collisions, deviation, latency.
+
+    ``sensitivity``: also run in process with the robot spawned 1 mm forward, and report
+    that run's deviation from the reference -- the route's own sensitivity, the floor
+    under any comparison that is not bit-exact (docs/drivers.md)."""
     t0 = time.perf_counter()
     ref = run_demo(out / f"{robot}-inproc", seed, robot=robot, show_progress=False)
     t1 = time.perf_counter()
     hil = run_demo(out / f"{robot}-{link}", seed, robot=robot, show_progress=False,
                    link=link)  # type: ignore[arg-type]
     t2 = time.perf_counter()
-    a = np.loadtxt(out / f"{robot}-inproc" / "trajectory.csv", delimiter=",", skiprows=1)
-    b = np.loadtxt(out / f"{robot}-{link}" / "trajectory.csv", delimiter=",", skiprows=1)
+    a = _trajectory(out / f"{robot}-inproc")
+    b = _trajectory(out / f"{robot}-{link}")
     lat = hil["link"]["command_latency"]
-    return {"robot": robot, "link": link, "inproc_success": ref["success"],
-            "hil_success": hil["success"], "hil_collisions": hil["collisions"],
-            "inproc_collisions": ref["collisions"],
-            "deviation_m": round(trajectory_deviation(a[:, 1:3], b[:, 1:3]), 4),
-            "hil_latency_p50_ms": lat["p50_ms"], "hil_latency_p95_ms": lat["p95_ms"],
-            "hil_latency_max_ms": lat["max_ms"], "commands": hil["link"]["commands_sent"],
-            "sim_time_s": hil["sim_time_s"], "inproc_wall_s": round(t1 - t0, 1),
-            "hil_wall_s": round(t2 - t1, 1)}
+    case: dict[str, Any] = {
+        "robot": robot, "link": link, "inproc_success": ref["success"],
+        "hil_success": hil["success"], "hil_collisions": hil["collisions"],
+        "inproc_collisions": ref["collisions"],
+        "deviation_m": round(trajectory_deviation(a, b), 4),
+        "first_goal_deviation_m": round(_first_goal_deviation(a, b, ref), 4),
+        "hil_latency_p50_ms": lat["p50_ms"], "hil_latency_p95_ms": lat["p95_ms"],
+        "hil_latency_max_ms": lat["max_ms"], "commands": hil["link"]["commands_sent"],
+        "sync_timeouts": hil["link"]["sync_timeouts"],
+        "sim_time_s": hil["sim_time_s"], "inproc_wall_s": round(t1 - t0, 1),
+        "hil_wall_s": round(t2 - t1, 1)}
+    if sensitivity:
+        spawn = load_world(ref["world"]).spawn
+        moved = Pose2D(spawn.x + SENSITIVITY_OFFSET_M * math.cos(spawn.theta),
+                       spawn.y + SENSITIVITY_OFFSET_M * math.sin(spawn.theta), spawn.theta)
+        run_demo(out / f"{robot}-moved", seed, robot=robot, show_progress=False, spawn=moved)
+        c = _trajectory(out / f"{robot}-moved")
+        case["sensitivity_1mm_m"] = round(trajectory_deviation(a, c), 4)
+        case["sensitivity_1mm_first_goal_m"] = round(_first_goal_deviation(a, c, ref), 4)
+    return case
+
+
+def _trajectory(out: Path) -> np.ndarray:
+    """``(N, 3)``: t, x, y of a demo's true trajectory."""
+    return np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, :3]
+
+
+def _first_goal_deviation(a: np.ndarray, b: np.ndarray, ref: dict[str, Any]) -> float:
+    """Deviation over the first leg: up to the reference's first goal time, and ``b``
+    up to the point nearest the reference's end of that leg."""
+    t_end = ref["goals"][0]["time_s"]
+    leg_a = a[a[:, 0] <= t_end + 1e-9, 1:3]
+    end = leg_a[-1]
+    k = int(np.argmin(np.hypot(b[:, 1] - end[0], b[:, 2] - end[1])))
+    return trajectory_deviation(leg_a, b[:k + 1, 1:3])
 
 
 def run(quick: bool, data_dir: Path, commands: int = 2000) -> BenchResult:
@@ -161,8 +200,10 @@ def run(quick: bool, data_dir: Path, commands: int = 2000) -> BenchResult:
         for robot, link in robots:
             case = compare_demo(robot, link, Path(tmp))
             result.cases.append(case)
-            for key in ("hil_success", "hil_collisions", "deviation_m", "hil_latency_p95_ms"):
-                result.metrics[f"{robot}_{key}"] = float(case[key])
+            for key in ("hil_success", "hil_collisions", "deviation_m",
+                        "first_goal_deviation_m", "sensitivity_1mm_m", "hil_latency_p95_ms"):
+                if key in case:
+                    result.metrics[f"{robot}_{key}"] = float(case[key])
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     result.notes.append(f"budgets: latency p95 <= {LATENCY_BUDGET_MS} ms, trajectory "
                         f"deviation <= {DEVIATION_BUDGET_M} m; 1-minute load average "
