@@ -16,6 +16,10 @@ hardware-in-the-loop demos against their in-process twins.
    0.1 s samples), budget 0.3 m.  Both runs plan deterministically: on simulated time
    the planners count ``max_planning_time`` in expansions, not wall seconds
    (:mod:`navstack.planning.budget`), so only the link can make them differ.
+   ``first_goal_deviation_m``: the same over the first leg.  ``sensitivity_1mm_m``: the
+   deviation of a third, in-process run whose robot starts 1 mm further forward -- how
+   far the route itself carries a difference no link can avoid (a float32, a decimal);
+   a deviation at that level is the route's, not the link's.
 
 The wall-clock figures depend on the machine's load; the 1-minute load average is
 recorded in the notes.
