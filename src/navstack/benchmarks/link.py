@@ -69,11 +69,12 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
     """Added command latency of one link (module docstring), in ms."""
     tmp = Path(tempfile.mkdtemp(prefix="navstack-bench-link-"))
     decoded: list[float] = []
-    got = threading.Semaphore(0)
+    got = threading.Condition()
 
     def on_command(_cmd: object, wall: float) -> None:
-        decoded.append(wall)
-        got.release()
+        with got:
+            decoded.append(wall)
+            got.notify_all()
 
     far_t: Transport
     if kind == "udp":
@@ -94,7 +95,7 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
         driver = SerialTransport("steering", str(tmp / "ttyBENCH"), 115200)
     driver.open()
     latencies: list[float] = []
-    lost = 0
+    lost = sent = 0
     rng = np.random.default_rng(0)
     try:
         for _ in range(commands):
@@ -102,11 +103,20 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
             t0 = time.perf_counter()
             packet = encode_vcu_command(vx, wz) if kind == "udp" else \
                 encode_cart_command(vx, 0.3 * wz)
-            n = len(decoded)
-            if not driver.write(packet) or not got.acquire(timeout=0.5):
+            if not driver.write(packet):
                 lost += 1
                 continue
-            latencies.append(decoded[n] - t0)
+            n = sent  # the vehicle decodes in order: this command is decode number n
+            sent += 1
+
+            def arrived(n: int = n) -> bool:
+                return len(decoded) > n
+
+            with got:
+                if not got.wait_for(arrived, timeout=0.5):
+                    lost += 1  # late: it still takes its place in ``decoded``
+                    continue
+                latencies.append(decoded[n] - t0)
             time.sleep(pace)
     except MalformedPacket:
         lost += 1
