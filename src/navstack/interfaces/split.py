@@ -287,6 +287,7 @@ class BaseProcess:
                 "succeeded": sum(g["status"] == GoalStatus.SUCCEEDED.value for g in goals),
                 "link": self.link.health(), "latency_s": _latency(self.link),
                 "goal_round_trip_s": _percentiles(goal_rtt),
+                "actions": {p.remote: p.outcomes for p in self.proxies},
                 "robot_offset_s": self.link.offset(robot)}
 
     def close(self) -> None:

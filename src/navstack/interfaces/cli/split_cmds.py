@@ -129,6 +129,10 @@ def split_demo(
                                                  "blackout [s].")] = None,
     reference: Annotated[bool, typer.Option(help="Also run the in-process demo with the "
                                             "same seed and compare trajectories.")] = True,
+    reference_csv: Annotated[Path | None, typer.Option(
+        "--reference-csv", help="Compare with this trajectory.csv of an earlier `navstack "
+                                "demo` run with the same seed instead of running it.")]
+    = None,
     port: Annotated[int, typer.Option(help="Loopback TCP port of the robot.")] = 7447,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the figures "
                                                   "here.")] = None,
@@ -138,6 +142,8 @@ def split_demo(
     estimated clock offset and (with --blackout) the time to a zero base command."""
     import tempfile
     from importlib import resources
+
+    import numpy as np
 
     from navstack.interfaces.demo import default_waypoints_path
     from navstack.interfaces.split_demo import reference_run, run_split, score
@@ -154,9 +160,13 @@ def split_demo(
         robot_rep, base_rep = run_split(stack, wp, rate=rate, offset=clock_offset,
                                         compensate=not no_compensate, blackout=span,
                                         port=port)
-        ref = (reference_run(seed, wp, Path(tempfile.mkdtemp(prefix="navstack-ref-")))
-               if reference else None)
-    except (NavstackError, RuntimeError) as exc:
+        if reference_csv is not None:
+            ref = np.loadtxt(reference_csv, delimiter=",", skiprows=1).reshape(-1, 4)
+        elif reference:
+            ref = reference_run(seed, wp, Path(tempfile.mkdtemp(prefix="navstack-ref-")))
+        else:
+            ref = None
+    except (NavstackError, RuntimeError, OSError, ValueError) as exc:
         raise fail(one_line(exc)) from None
     figures = score(robot_rep, base_rep, ref, clock_offset, span)
     for key, value in figures.items():

@@ -81,7 +81,7 @@ def serve_service(link: ZenohLink, name: str, peer: str, timeout: float = 2.0) -
 
 
 def proxy_service(link: ZenohLink, remote_full: str, local: str, peer: str,
-                  timeout: float = 1.0) -> None:
+                  timeout: float = 3.0) -> None:
     """Advertise bus service ``local`` that calls ``remote_full`` on ``peer``."""
     key = navstack_key(link.params.domain_id, "srv", namespaced("", remote_full))
     wait = timeout / link.params.clock.rate
@@ -180,7 +180,7 @@ class ActionProxy:
     _ids = itertools.count(1)
 
     def __init__(self, link: ZenohLink, remote_full: str, local: str, peer: str,
-                 timeout: float = 1.0) -> None:
+                 timeout: float = 3.0) -> None:
         self.link, self.peer, self.remote, self.timeout = link, peer, remote_full, timeout
         self.base = navstack_key(link.params.domain_id, "act", namespaced("", remote_full))
         self.handles: dict[str, GoalHandle[Any]] = {}
@@ -190,10 +190,16 @@ class ActionProxy:
         link._entities += [s.declare_subscriber(f"{self.base}/fb", self._on_feedback),
                            s.declare_subscriber(f"{self.base}/result", self._on_result)]
         self.goal_latency: list[float] = []
+        #: outcomes seen by this proxy: "SUCCEEDED", "CANCELED", ..., "no_answer", "link_down"
+        self.outcomes: dict[str, int] = {}
+
+    def _count(self, what: str) -> None:
+        self.outcomes[what] = self.outcomes.get(what, 0) + 1
 
     def _on_goal(self, handle: GoalHandle[Any]) -> bool | str:
         link = self.link
         if not link.passes():
+            self._count("link_down")
             return f"action '{self.remote}' on '{self.peer}': link down (impaired)"
         gid = f"{link.params.name}-{next(self._ids)}-{uuid.uuid4().hex[:8]}"
         payload = encode_envelope({"gid": gid, "goal": handle.goal})
@@ -205,9 +211,11 @@ class ActionProxy:
             self.goal_latency.append(time.perf_counter() - t0)
             rejected = decode_envelope(reply.ok.payload.to_bytes())["rejected"]
             if rejected is not None:
+                self._count("REJECTED")
                 return rejected.error_msg or "goal rejected by the remote server"
             self.handles[gid] = handle
             return True
+        self._count("no_answer")
         return (f"action '{self.remote}' on '{self.peer}': no answer within "
                 f"{self.timeout:g} s (is '{self.peer}' running and the link up?)")
 
@@ -249,4 +257,5 @@ class ActionProxy:
         handle = self.handles.pop(gid, None)
         if handle is not None:
             result = link.compensate(msg["result"], self.peer)
+            self._count(result.status.value)
             link.deliver(handle.finish, result)
