@@ -46,6 +46,7 @@ from navstack.core.msgs import (
 )
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
+from navstack.interfaces.health.checks import clock_contract
 from navstack.interfaces.stack import NavStack
 from navstack.navigation import messages as m
 from navstack.navigation.behavior_server import BehaviorServer
@@ -64,6 +65,7 @@ from navstack.runtime.node import Runtime
 from navstack.runtime.scheduler import Scheduler
 from navstack.runtime.transports.config import TransportSection
 from navstack.runtime.transports.keys import namespaced
+from navstack.runtime.transports.lockstep import Lockstep
 from navstack.runtime.transports.remote_calls import (
     ActionProxy,
     proxy_service,
@@ -119,6 +121,10 @@ def transport_for(stack_file: str | FsPath, name: str,
 
 
 def wall_runtime(t: TransportSection) -> Runtime:
+    """The process's runtime: a wall clock, or (``clock.mode: lockstep``) stepped time
+    starting at the shared epoch plus this process's offset."""
+    if t.clock.mode == "lockstep":
+        return Runtime(Scheduler("sim", start_time=Scheduler.EPOCH + t.clock.offset))
     return Runtime(Scheduler("wall", rate=t.clock.rate, clock_offset=t.clock.offset))
 
 
@@ -137,6 +143,8 @@ class RobotProcess:
         rt = self.runtime = wall_runtime(t)
         rt.scheduler.lateness = deque(maxlen=200_000)
         self.link = link = ZenohLink(rt, t, peers=t.peers)
+        self.lockstep = (Lockstep(link, "master", base, t.clock.quantum)
+                         if t.clock.mode == "lockstep" else None)
         simulator = Simulator(d.world, d.robot, d.seed, d.spawn)
         simulator.time = rt.now  # the world starts now on the wall clock, not at 0
         self.sim = SimulatorNode(rt, simulator, d.physics_rate_hz, True)
@@ -228,6 +236,8 @@ class BaseProcess:
         robot = t.peers[0]
         rt = self.runtime = wall_runtime(t)
         self.link = link = ZenohLink(rt, t, peers=t.peers)
+        self.lockstep = (Lockstep(link, "follower", robot, t.clock.quantum)
+                         if t.clock.mode == "lockstep" else None)
         self.map_server = MapServer(rt, grid=d.map_grid or d.world.to_occupancy_grid())
         self.global_costmap = CostmapNode(rt, "global_costmap", d.global_costmap, d.footprint,
                                           d.nav2_file)
@@ -283,12 +293,16 @@ class BaseProcess:
     def report(self, goals: list[dict[str, Any]]) -> dict[str, Any]:
         robot = self.transport.peers[0]
         goal_rtt = sorted(x for p in self.proxies for x in p.goal_latency)
+        contract = clock_contract(robot, self.link.health()[robot],
+                                  self.transport.clock.tolerance)
         return {"role": "base", "name": self.transport.name, "goals": goals,
                 "succeeded": sum(g["status"] == GoalStatus.SUCCEEDED.value for g in goals),
                 "link": self.link.health(), "latency_s": _latency(self.link),
                 "goal_round_trip_s": _percentiles(goal_rtt),
                 "actions": {p.remote: p.outcomes for p in self.proxies},
-                "robot_offset_s": self.link.offset(robot)}
+                "robot_offset_s": self.link.offset(robot),
+                "clock_contract": {"name": contract.name, "ok": contract.ok,
+                                   "detail": contract.detail, "fix": contract.fix}}
 
     def close(self) -> None:
         self.link.close()

@@ -59,11 +59,11 @@ def _cmd(role: str, stack: FsPath, out: FsPath, args: Sequence[str]) -> list[str
 
 def run_split(stack: FsPath, waypoints: FsPath, *, rate: float = 2.0, offset: float = 0.0,
               compensate: bool = True, blackout: tuple[float, float] | None = None,
-              port: int = 7447, timeout_s: float = 1800.0) -> tuple[dict[str, Any],
-                                                                     dict[str, Any]]:
+              port: int = 7447, timeout_s: float = 1800.0,
+              lockstep: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
     """Run robot and base as two processes; returns their reports."""
     tmp = FsPath(tempfile.mkdtemp(prefix="navstack-split-"))
-    common = ["--rate", str(rate)]
+    common = ["--lockstep"] if lockstep else ["--rate", str(rate)]
     robot_args = [*common, "--listen", f"tcp/127.0.0.1:{port}", "--clock-offset", str(offset)]
     if blackout is not None:
         robot_args += ["--blackout", f"{blackout[0]}:{blackout[1]}"]
@@ -106,6 +106,8 @@ def score(robot: dict[str, Any], base: dict[str, Any], reference: np.ndarray | N
         "offset_configured_s": offset,
         "offset_estimated_s": base["robot_offset_s"],
         "offset_error_ms": 1e3 * abs(base["robot_offset_s"] - offset),
+        "clock_contract": ("ok" if base["clock_contract"]["ok"] else "FAIL: ")
+        + ("" if base["clock_contract"]["ok"] else base["clock_contract"]["detail"]),
     }
     if reference is not None:
         out["trajectory_deviation_m"] = hausdorff_xy(moving_part(traj)[:, 1:3],

@@ -116,6 +116,11 @@ class Scheduler:
         self._inbox: deque[tuple[Callable[..., Any], tuple[Any, ...]]] = deque()
         #: wall/throttled modes: how late [real s] each event ran, when set to a deque
         self.lateness: deque[float] | None = None
+        #: lockstep with other processes (:mod:`navstack.runtime.transports.lockstep`):
+        #: no event later than ``horizon()`` runs; ``on_blocked()`` is called while the
+        #: loop waits for the horizon to move (posted work still runs meanwhile)
+        self.horizon: Callable[[], float] | None = None
+        self.on_blocked: Callable[[], None] | None = None
         self._wake = threading.Event()
         if mode == "wall":
             self._wall0 = time.monotonic()
@@ -165,6 +170,21 @@ class Scheduler:
             fn, args = inbox.popleft()
             self.call_at(self._now, fn, *args)
 
+    def _wait_for_horizon(self) -> None:
+        """Blocked by the horizon: tell the peers, run posted work, wait to be woken."""
+        if self.on_blocked is not None:
+            self.on_blocked()
+        if self._inbox:
+            self._drain_inbox()
+            return
+        self._wake.wait(0.05)
+        if self._inbox:
+            self._drain_inbox()
+
+    def wake(self) -> None:
+        """Thread-safe: make a waiting loop look again (its horizon moved)."""
+        self._wake.set()
+
     def _sleep_until(self, wall: float) -> bool:
         """Sleep until monotonic time ``wall``; ``True`` if posted work woke us first."""
         while True:
@@ -208,6 +228,9 @@ class Scheduler:
         while queue:
             if queue[0][2].cancelled:
                 heapq.heappop(queue)
+                continue
+            if self.horizon is not None and queue[0][0] > self.horizon():
+                self._wait_for_horizon()
                 continue
             wall = self._wall_time_for(queue[0][0])
             if wall is not None and self._sleep_until(wall):

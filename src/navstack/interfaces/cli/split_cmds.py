@@ -31,14 +31,17 @@ CompOpt = Annotated[bool, typer.Option("--no-compensate", help="Do not correct r
 BlackoutOpt = Annotated[list[str] | None, typer.Option("--blackout", help="START:DURATION "
                                                        "seconds of link blackout after "
                                                        "the link opens (tests).")]
+LockstepOpt = Annotated[bool, typer.Option("--lockstep", help="Stepped simulated time "
+                                           "shared with the peer instead of the wall clock "
+                                           "(reproducible on a loaded machine).")]
 ReportOpt = Annotated[Path | None, typer.Option("--report", help="Write the process "
                                                 "report (JSON) here.")]
 
 
 def _overrides(listen: list[str] | None, connect: list[str] | None, rate: float | None,
                offset: float | None, no_compensate: bool,
-               blackout: list[str] | None) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+               blackout: list[str] | None, lockstep: bool = False) -> dict[str, Any]:
+    out: dict[str, Any] = {"clock.mode": "lockstep"} if lockstep else {}
     if listen:
         out["listen"] = listen
     if connect:
@@ -68,7 +71,7 @@ def _overrides(listen: list[str] | None, connect: list[str] | None, rate: float 
 def robot(stack: StackOpt, name: NameOpt = None, listen: ListenOpt = None,
           connect: ConnectOpt = None, rate: RateOpt = None, clock_offset: OffsetOpt = None,
           no_compensate: CompOpt = False, blackout: BlackoutOpt = None,
-          report: ReportOpt = None,
+          lockstep: LockstepOpt = False, report: ReportOpt = None,
           max_seconds: Annotated[float, typer.Option(help="Stop after this many seconds "
                                                      "(process clock).")] = 3600.0,
           keep_running: Annotated[bool, typer.Option(
@@ -81,7 +84,8 @@ def robot(stack: StackOpt, name: NameOpt = None, listen: ListenOpt = None,
     try:
         out = run_robot(stack, name or "robot", max_seconds,
                         _overrides(listen, connect, rate, clock_offset, no_compensate,
-                                   blackout), report, stop_when_base_leaves=not keep_running)
+                                   blackout, lockstep), report,
+                        stop_when_base_leaves=not keep_running)
     except NavstackError as exc:
         raise fail(one_line(exc)) from None
     typer.echo(f"[robot] done: {out['collisions']} collisions, link stops "
@@ -95,7 +99,7 @@ def base(stack: StackOpt,
                                                         "office waypoints).")] = None,
          name: NameOpt = None, listen: ListenOpt = None, connect: ConnectOpt = None,
          rate: RateOpt = None, clock_offset: OffsetOpt = None, no_compensate: CompOpt = False,
-         report: ReportOpt = None,
+         lockstep: LockstepOpt = False, report: ReportOpt = None,
          goal_timeout: Annotated[float, typer.Option(help="Seconds per goal.")] = 240.0
          ) -> None:
     """The base-station half: map server, global costmap, planner, BT navigator; sends
@@ -105,7 +109,8 @@ def base(stack: StackOpt,
 
     try:
         out = run_base(stack, waypoints or default_waypoints_path(), name or "base",
-                       _overrides(listen, connect, rate, clock_offset, no_compensate, None),
+                       _overrides(listen, connect, rate, clock_offset, no_compensate, None,
+                                  lockstep),
                        report, goal_timeout)
     except NavstackError as exc:
         raise fail(one_line(exc)) from None
@@ -125,6 +130,7 @@ def split_demo(
     clock_offset: Annotated[float, typer.Option("--clock-offset", help="Robot clock "
                                                 "error [s].")] = 0.0,
     no_compensate: CompOpt = False,
+    lockstep: LockstepOpt = False,
     blackout: Annotated[str | None, typer.Option(help="START:DURATION of a robot link "
                                                  "blackout [s].")] = None,
     reference: Annotated[bool, typer.Option(help="Also run the in-process demo with the "
@@ -159,7 +165,7 @@ def split_demo(
         seed = load_stack(stack).seed
         robot_rep, base_rep = run_split(stack, wp, rate=rate, offset=clock_offset,
                                         compensate=not no_compensate, blackout=span,
-                                        port=port)
+                                        port=port, lockstep=lockstep)
         if reference_csv is not None:
             ref = np.loadtxt(reference_csv, delimiter=",", skiprows=1).reshape(-1, 4)
         elif reference:
@@ -175,4 +181,5 @@ def split_demo(
     write_json(json_out, {"suite": "split_demo", "metrics": figures,
                           "args": json.loads(json.dumps({"rate": rate, "offset": clock_offset,
                                                          "compensate": not no_compensate,
+                                                         "lockstep": lockstep,
                                                          "blackout": blackout}))})

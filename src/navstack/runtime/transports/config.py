@@ -30,8 +30,13 @@ from navstack.runtime.transports.impairments import LinkImpairments
 class ClockSection(Params):
     """``offset`` [s]: simulated error of this process's clock (tests); ``compensate``:
     shift received stamps by the estimated offset; ``rate``: accelerated wall clock
-    (both processes must agree; 1 = real time); ``sync_period`` [s] between exchanges."""
+    (both processes must agree; 1 = real time); ``sync_period`` [s] between exchanges and
+    heartbeats; ``mode``: ``wall`` (hardware, real time) or ``lockstep`` (simulation:
+    stepped time shared by robot and base, reproducible under load, ``quantum`` apart at
+    most -- :mod:`navstack.runtime.transports.lockstep`)."""
 
+    mode: Literal["wall", "lockstep"] = "wall"
+    quantum: float = Field(0.005, gt=0.0, le=0.1)
     offset: float = Field(0.0, ge=-86400.0, le=86400.0)
     compensate: bool = True
     rate: float = Field(1.0, gt=0.0, le=20.0)

@@ -13,8 +13,10 @@ with a liveliness token in rmw_zenoh's layout, and then:
 * Clocks: every ``sync_period`` the link probes each peer's clock queryable (NTP-style,
   :mod:`.clock_sync`); received stamps are shifted by the peer's estimated offset when
   ``clock.compensate`` is on, and nothing from a peer is delivered before its first
-  estimate.  The probes double as the heartbeat: :meth:`peer_up` is false when a peer has
-  not answered for ``link_timeout``.
+  estimate.
+* Heartbeats: every ``sync_period`` of its own loop each process puts a heartbeat;
+  :meth:`peer_up` is false when a peer's has not arrived for ``link_timeout`` (a stalled
+  base counts as a lost one).
 * Impairments (:mod:`.impairments`) drop or delay this process's traffic for tests.
 
 Zenoh calls back on its own threads; everything that touches the bus is handed to the
@@ -66,7 +68,7 @@ class PeerState:
 
     name: str
     estimator: OffsetEstimator = field(default_factory=OffsetEstimator)
-    last_heard: float = -math.inf  # time.monotonic() of the last answered probe
+    last_heard: float = -math.inf  # process clock of the last heartbeat received
     probes: int = 0
     answered: int = 0
 
@@ -127,7 +129,13 @@ class ZenohLink:
         self._entities.append(self.session.liveliness().declare_subscriber(
             f"@ros2_lv/{params.domain_id}/*/0/0/NN/**", self._on_node_token, history=True))
         runtime.bus.add_tap(self._tap)
+        self._hb_key = navstack_key(params.domain_id, "hb", params.name)
+        self._entities.append(self.session.declare_subscriber(
+            navstack_key(params.domain_id, "hb", "*"), self._on_heartbeat))
+        self.scheduler.create_timer(params.clock.sync_period, self._heartbeat)
         self._stop = threading.Event()
+        #: NTP probes from the link thread (off in lockstep: the barrier exchanges clocks)
+        self.probing = True
         self._periodic: list[Callable[[], None]] = []
         self._sync_thread = threading.Thread(target=self._sync_loop, name="navstack-clock",
                                              daemon=True)
@@ -163,9 +171,7 @@ class ZenohLink:
             return
         t1, who = _PROBE.unpack(raw)
         query.reply(query.key_expr, _ANSWER.pack(t1, t2, self.scheduler.clock()))
-        prober = self.peers.get(who.rstrip(b"\0").decode(errors="replace"))
-        if prober is not None:  # being probed is evidence the peer is alive too
-            prober.last_heard = time.monotonic()
+        del who
 
     def _probe(self, peer: PeerState) -> None:
         key = navstack_key(self.params.domain_id, "clock", peer.name)
@@ -183,14 +189,13 @@ class ZenohLink:
             if echoed != t1:
                 continue
             peer.estimator.add(exchange_sample(t1, t2, t3, t4))
-            peer.last_heard = time.monotonic()
             peer.answered += 1
 
     def _sync_loop(self) -> None:
         period = self.params.clock.sync_period / self.params.clock.rate
         while not self._stop.is_set():
             start = time.monotonic()
-            for peer in list(self.peers.values()):
+            for peer in list(self.peers.values()) if self.probing else ():
                 try:
                     self._probe(peer)
                 except zenoh.ZError as exc:  # session closing under us
@@ -221,10 +226,21 @@ class ZenohLink:
         """Estimated offset of ``peer``'s clock over ours [s]."""
         return self.peer(peer).estimator.offset
 
+    def _heartbeat(self) -> None:
+        if not self._closed and self.passes():
+            self.session.put(self._hb_key, self.params.name.encode())
+
+    def _on_heartbeat(self, sample: zenoh.Sample) -> None:
+        if self._closed or not self.passes():
+            return
+        peer = self.peers.get(sample.payload.to_bytes().decode(errors="replace"))
+        if peer is not None:
+            peer.last_heard = self.scheduler.clock()
+
     def peer_up(self, peer: str) -> bool:
-        """Whether ``peer`` answered a clock probe within ``link_timeout``."""
-        timeout = self.params.link_timeout / self.params.clock.rate
-        return time.monotonic() - self.peer(peer).last_heard <= timeout
+        """Whether ``peer``'s heartbeat (sent every ``sync_period`` from its loop) arrived
+        within ``link_timeout`` seconds of this process's clock."""
+        return self.scheduler.clock() - self.peer(peer).last_heard <= self.params.link_timeout
 
     def ready(self, peer: str) -> bool:
         """Whether ``peer``'s clock has been estimated (its messages are delivered)."""
@@ -338,7 +354,7 @@ class ZenohLink:
     # --- status and shutdown ----------------------------------------------------------------
     def health(self) -> dict[str, dict[str, float | int | bool]]:
         """Per peer: estimated offset and round trip [s], seconds since last heard, up."""
-        now = time.monotonic()
+        now = self.scheduler.clock()
         return {p.name: {"offset_s": p.estimator.offset, "round_trip_s": p.estimator.delay,
                          "last_heard_s": now - p.last_heard, "up": self.peer_up(p.name),
                          "exchanges": p.answered, "probes": p.probes,
