@@ -12,9 +12,10 @@ from navstack.interfaces.cli import (
     link_cmds,
     sim_cmds,
     slam_cmds,
+    split_cmds,
     telegram_cmds,
 )
 from navstack.interfaces.cli.common import app
 
 __all__ = ["app", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds", "sim_cmds", "slam_cmds",
-           "telegram_cmds"]
+           "split_cmds", "telegram_cmds"]
