@@ -6,13 +6,17 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from navstack.geo.conversions import GeoError, LocalCartesian, yaw_to_bearing
 from navstack.geo.gps_goal import (
+    FixGoalFilter,
     LocalOrigin,
+    course_over_ground,
     format_dms,
     gps_goal_in_odom,
+    odom_axis_course,
     parse_coordinate,
 )
 from navstack.sim.gnss import world_to_enu
@@ -106,3 +110,39 @@ def test_goal_faces_the_target_from_the_robot() -> None:
     assert goal.yaw == pytest.approx(-math.pi / 2, abs=1e-6)
     with pytest.raises(GeoError, match=r"origin\.latitude"):
         LocalOrigin(95.0, 0.0, 0.0)
+
+
+def test_course_over_ground_is_a_circular_mean_of_fast_samples() -> None:
+    # 359 and 1 degrees average to 0; the slow start-up samples are left out
+    east = [math.sin(math.radians(a)) * 1.5 for a in (359.0, 1.0)] + [0.2]
+    north = [math.cos(math.radians(a)) * 1.5 for a in (359.0, 1.0)] + [-0.1]
+    assert abs(math.remainder(course_over_ground(east, north, 0.5), 360.0)) < 1e-9
+    assert course_over_ground([1.0, 1.0], [0.0, 1e-3]) == pytest.approx(89.97, abs=0.01)
+    with pytest.raises(GeoError, match=r"none of 2 GNSS velocity samples reached 0\.5 m/s"):
+        course_over_ground([0.1, 0.0], [0.0, 0.2], 0.5)
+
+
+def test_odom_axis_course_adds_the_odom_yaw() -> None:
+    # a rover heading north-east (bearing 45) at odom yaw +0.5 rad: odom x points
+    # 45 + 28.65 degrees
+    assert odom_axis_course(45.0, 0.5) == pytest.approx(45.0 + math.degrees(0.5))
+    assert odom_axis_course(350.0, math.radians(20.0)) == pytest.approx(10.0)
+
+
+def test_fix_goal_filter_averages_the_per_fix_goal() -> None:
+    geo = GeoReferenceParams(world_yaw=0.35)
+    goal_ll = _world_ll(geo, 20.0, 10.0)
+    course = math.degrees(yaw_to_bearing(0.35))  # odom = world here
+    flt = FixGoalFilter(*goal_ll, course, window=10.0)
+    rng = np.random.default_rng(1)
+    for k in range(50):  # 10 s at 5 Hz, 2 m noise per axis, robot parked at (3, 4)
+        nx, ny = rng.normal(0.0, 2.0, 2)
+        lat, lon = _world_ll(geo, 3.0 + nx, 4.0 + ny)
+        gx, gy = flt.add_fix(0.2 * k, lat, lon, 3.0, 4.0)
+    assert flt.fixes == 50
+    assert math.hypot(gx - 20.0, gy - 10.0) < 0.7  # 2 m / sqrt(50) = 0.28 m per axis
+    flt.add_fix(30.0, *_world_ll(geo, 3.0, 4.0), 3.0, 4.0)  # the window forgets old fixes
+    assert flt.fixes == 1
+    assert flt.goal() == pytest.approx((20.0, 10.0), abs=0.01)
+    with pytest.raises(GeoError, match="no GNSS fix yet"):
+        FixGoalFilter(*goal_ll, course).goal()
