@@ -24,7 +24,8 @@ def test_far_goal_gives_a_capped_intermediate_goal_facing_it() -> None:
 
 
 def test_integral_accumulates_far_and_resets_within_two_metres() -> None:
-    pi = GpsChasePI(GpsChaseParams(kp=0.1, ki=0.1, windup_radius=2.0, max_step=100.0))
+    pi = GpsChasePI(GpsChaseParams(kp=0.1, ki=0.1, windup_radius=2.0, max_step=100.0,
+                                   max_integral=100.0))
     for _ in range(3):
         step = pi.step((10.0, 0.0), (0.0, 0.0), 0.5)
     assert pi.integral == pytest.approx((15.0, 0.0))
@@ -36,16 +37,26 @@ def test_integral_accumulates_far_and_resets_within_two_metres() -> None:
 
 
 def test_integral_contribution_is_capped() -> None:
-    pi = GpsChasePI(GpsChaseParams(kp=0.0001, ki=1.0, max_step=5.0))
+    pi = GpsChasePI(GpsChaseParams(kp=0.0001, ki=0.5, max_integral=2.0))
     for _ in range(100):
         pi.step((0.0, 50.0), (0.0, 0.0), 1.0)
-    assert math.hypot(*pi.integral) == pytest.approx(5.0)
+    assert math.hypot(*pi.integral) == pytest.approx(4.0)  # ki |I| = 2 m
+
+
+def test_integral_resets_once_the_rover_is_past_the_goal() -> None:
+    pi = GpsChasePI(GpsChaseParams(kp=1.0, ki=0.02, max_integral=2.0))
+    for k in range(5):  # approach from the west: the integral points east
+        pi.step((20.0, 0.0), (2.0 * k, 0.0), 2.0)
+    assert pi.integral[0] > 0.0
+    step = pi.step((20.0, 0.0), (24.0, 0.5), 2.0)  # overshot by 4 m
+    assert pi.integral == (0.0, 0.0)
+    assert step.x == pytest.approx(20.0) and step.y == pytest.approx(0.0)
 
 
 def test_integral_steers_against_a_steady_offset() -> None:
     # the goal estimate sits to the left while the rover keeps being pushed right: the
     # integral turns the intermediate goal further left than the proportional term alone
-    pi = GpsChasePI(GpsChaseParams(kp=0.2, ki=0.05, max_step=50.0))
+    pi = GpsChasePI(GpsChaseParams(kp=0.2, ki=0.05, max_step=50.0, max_integral=50.0))
     plain = GpsChasePI(GpsChaseParams(kp=0.2, ki=0.0, max_step=50.0))
     for k in range(10):
         pos = (float(k), -0.5 * k)
