@@ -193,7 +193,7 @@ def test_unknown_world_name() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_world("ofice")
     assert str(err.value) == ("unknown world 'ofice' (did you mean 'office'?); known: "
-                              "campus, maze, office, warehouse")
+                              "campus, mars_yard, maze, office, warehouse")
     with pytest.raises(ConfigError) as cerr:
         load_world("no/such/world.yaml")
     assert str(cerr.value) == ("no/such/world.yaml: world file not found (check the path or "
@@ -209,7 +209,7 @@ def test_primitives_file_by_path(tmp_path: Path) -> None:
 
 
 # --- built-in worlds ----------------------------------------------------------------
-BUILTIN = ["campus", "maze", "office", "warehouse"]
+BUILTIN = ["campus", "mars_yard", "maze", "office", "warehouse"]
 
 
 def test_catalogue() -> None:
@@ -226,7 +226,7 @@ def worlds() -> dict[str, World]:
 @pytest.mark.parametrize("name", BUILTIN)
 def test_builtin_places_are_clear_and_reachable(worlds: dict[str, World], name: str) -> None:
     w = worlds[name]
-    radius = 1.2 if name == "campus" else 0.22
+    radius = 1.2 if name in ("campus", "mars_yard") else 0.22
     places = {"spawn": w.spawn, **w.waypoints}
     assert len(w.waypoints) >= 3
     # robot-sized dilation of the grid (cells within `radius` of an obstacle cell), then

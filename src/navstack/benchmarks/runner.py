@@ -26,6 +26,7 @@ SUITE_MODULES: dict[str, str] = {
     "hybrid": "navstack.benchmarks.hybrid",
     "link": "navstack.benchmarks.link",
     "safety": "navstack.benchmarks.safety",
+    "rover": "navstack.benchmarks.rover",
 }
 
 
