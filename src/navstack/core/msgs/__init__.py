@@ -27,6 +27,7 @@ from navstack.core.msgs.nav2_msgs import CostmapFilterInfo, SpeedLimit
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
+    JointState,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -38,6 +39,8 @@ from navstack.core.msgs.sensor_msgs import (
     Odometry,
     Path,
     PointCloud,
+    PointCloud2,
+    PointField,
     TFMessage,
 )
 from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
@@ -50,6 +53,7 @@ __all__ = [
     "Float64",
     "Header",
     "Imu",
+    "JointState",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -62,6 +66,8 @@ __all__ = [
     "Path",
     "Point",
     "PointCloud",
+    "PointCloud2",
+    "PointField",
     "Polygon",
     "Pose",
     "Pose2D",

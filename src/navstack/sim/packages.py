@@ -1,0 +1,124 @@
+"""Packages on the floor and the gripper that carries them, inside the simulator.
+
+:class:`PackageWorld` keeps every package's current pose (they start where the world
+puts them), which one the gripper holds, and the robot's contacts with the others.
+Packages are below the lidar plane, so the lidar never sees them; the robot's body does
+touch them: a step that would make the footprint overlap a package is blocked like a
+step into a wall and counted in :attr:`PackageWorld.collisions` (per package, one count
+per contact episode, as the simulator counts wall contacts).
+
+The gripper (:class:`~navstack.sim.robot.GripperParams`): :meth:`PackageWorld.close`
+attaches the package whose centre lies in the reach zone in front of the robot, after
+``close_time``; it then keeps its pose relative to ``base_link`` (lifted: it no longer
+touches the floor or the robot) until :meth:`PackageWorld.open` puts it down where it is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from navstack.core.msgs import Pose2D
+from navstack.sim.collision import polygon_hits_moving
+from navstack.sim.markers import PackageSpec
+from navstack.sim.robot import GripperParams
+
+FloatArray = NDArray[np.float64]
+_NO_CIRCLES = np.zeros((0, 3))
+
+
+class PackageWorld:
+    """Package poses, the gripper state and package contacts (module docstring)."""
+
+    def __init__(self, packages: tuple[PackageSpec, ...], gripper: GripperParams,
+                 footprint: FloatArray) -> None:
+        self.specs = packages
+        self.params = gripper
+        self.poses: list[Pose2D] = [p.pose for p in packages]
+        self.front = float(np.max(footprint[:, 0]))
+        self.radius = float(np.max(np.hypot(footprint[:, 0], footprint[:, 1])))
+        self.closed = False
+        self.carried: int | None = None
+        self._offset = Pose2D()
+        self._closing_until = -math.inf
+        self._pending: int | None = None
+        self.collisions = [0] * len(packages)
+        self._last_contact = [-math.inf] * len(packages)
+        self.contact_release_s = 0.5
+
+    # --- gripper ------------------------------------------------------------------------
+    def in_reach(self, robot: Pose2D) -> int | None:
+        """Index of the package nearest to the gripper within the reach zone, or None."""
+        p = self.params
+        best, best_d = None, math.inf
+        c, s = math.cos(robot.theta), math.sin(robot.theta)
+        for i, pose in enumerate(self.poses):
+            if i == self.carried:
+                continue
+            dx, dy = pose.x - robot.x, pose.y - robot.y
+            ahead = c * dx + s * dy - self.front
+            side = -s * dx + c * dy
+            if p.reach_min <= ahead <= p.reach_max and abs(side) <= p.half_width:
+                d = math.hypot(ahead, side)
+                if d < best_d:
+                    best, best_d = i, d
+        return best
+
+    def close(self, robot: Pose2D, now: float) -> int | None:
+        """Start closing; the package in reach now (if any) is held once ``close_time``
+        has passed (:meth:`update`).  Returns that package's index."""
+        self.closed = True
+        if self.carried is not None:
+            return self.carried
+        self._pending = self.in_reach(robot)
+        self._closing_until = now + self.params.close_time
+        return self._pending
+
+    def open(self) -> int | None:
+        """Open: the carried package (returned) is put down where it is."""
+        self.closed = False
+        released, self.carried, self._pending = self.carried, None, None
+        return released
+
+    def update(self, robot: Pose2D, now: float) -> None:
+        """Finish a closing gripper and move the carried package with the robot."""
+        if self._pending is not None and now >= self._closing_until:
+            i = self._pending
+            self._pending = None
+            if self.in_reach(robot) == i:  # still there when the jaws meet
+                self.carried = i
+                self._offset = robot.inverse().compose(self.poses[i])
+        if self.carried is not None:
+            self.poses[self.carried] = robot.compose(self._offset)
+
+    # --- contacts -----------------------------------------------------------------------
+    def polygons(self) -> list[FloatArray]:
+        """Footprint polygons ``(4, 2)`` of the packages at their current poses."""
+        return [spec.polygon_at(pose) for spec, pose in zip(self.specs, self.poses, strict=True)]
+
+    def contact(self, footprint_world: FloatArray, robot: Pose2D, now: float) -> bool:
+        """Whether the robot footprint (world frame) overlaps a package it does not carry;
+        counts a new collision per package after ``contact_release_s`` without contact."""
+        hit = False
+        for i, (spec, pose) in enumerate(zip(self.specs, self.poses, strict=True)):
+            if i == self.carried:
+                continue
+            reach = self.radius + 0.5 * math.hypot(spec.size[0], spec.size[1])
+            if math.hypot(pose.x - robot.x, pose.y - robot.y) > reach:
+                continue
+            box = spec.polygon_at(pose)[None, :, :]
+            if polygon_hits_moving(np.ascontiguousarray(footprint_world), _NO_CIRCLES, box):
+                if now - self._last_contact[i] > self.contact_release_s:
+                    self.collisions[i] += 1
+                self._last_contact[i] = now
+                hit = True
+        return hit
+
+    @property
+    def total_collisions(self) -> int:
+        return sum(self.collisions)
+
+
+__all__ = ["PackageWorld"]
