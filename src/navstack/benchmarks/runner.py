@@ -24,6 +24,8 @@ SUITE_MODULES: dict[str, str] = {
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
+    "camera": "navstack.benchmarks.camera",
+    "aruco": "navstack.benchmarks.aruco",
 }
 
 
