@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -66,15 +67,14 @@ def run(quick: bool = False, data_dir: Any = None) -> BenchResult:
     frame: list[float] = []
     corners: list[float] = []
     for pose in poses:
-        frame += time_ms(lambda pose=pose: cam.render(world, pose, rng, moving), repeats,
-                         warmup=1)
-        corners += time_ms(lambda pose=pose: cam.detect_corners(world, pose, rng, moving),
-                           repeats, warmup=1)
+        frame += time_ms(partial(cam.render, world, pose, rng, moving), repeats, warmup=1)
+        corners += time_ms(partial(cam.detect_corners, world, pose, rng, moving), repeats,
+                           warmup=1)
     effects = CameraModel(params.updated(distortion=(-0.1, 0.02, 0.0, 0.0, 0.0),
                                          motion_blur=True, exposure_time=0.02))
     fx: list[float] = []
     for pose in poses[:10]:
-        fx += time_ms(lambda pose=pose: effects.render(world, pose, rng, moving, yaw_rate=1.0),
+        fx += time_ms(partial(effects.render, world, pose, rng, moving, yaw_rate=1.0),
                       repeats, warmup=1)
     median = float(statistics.median(frame))
     result = BenchResult("camera")
