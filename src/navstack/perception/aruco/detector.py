@@ -13,6 +13,9 @@ admits; the one with the smaller reprojection error is reported, the ratio of th
 errors as ``ambiguity`` (near 1: the view cannot tell them apart, typical of small or
 distant markers seen square-on).
 
+``confidence`` (aruco_msgs) is ``(1 - ambiguity) * exp(-e^2 / (8 sigma^2))`` for a
+reprojection error ``e`` [px]: low when the two poses fit alike or the fit is poor.
+
 Covariance (6x6, camera frame, ROS order x, y, z, rot x, rot y, rot z): first-order
 propagation of isotropic corner noise ``corner_sigma_px`` through the projection,
 ``sigma^2 (J^T J)^-1`` with ``J`` the 8x6 Jacobian of the four corners with respect to the
@@ -283,7 +286,8 @@ class ArucoDetector:
             ambiguity = float(errs[best] / errs[other]) if errs[other] > 0.0 else 1.0
         cov = pose_covariance(rot, t, size, camera, p.corner_sigma_px) * p.covariance_scale
         err = float(errs[best])
-        confidence = math.exp(-0.5 * (err / (2.0 * p.corner_sigma_px)) ** 2)
+        # aruco_msgs confidence: low for an ambiguous pose or a poor fit
+        confidence = (1.0 - ambiguity) * math.exp(-0.5 * (err / (2.0 * p.corner_sigma_px)) ** 2)
         return MarkerPose(detection.id, detection.corners, size, rot, t, cov, err, ambiguity,
                           confidence, alt)
 
