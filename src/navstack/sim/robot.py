@@ -65,7 +65,9 @@ class LidarParams(Params):
 
     ``beams`` rays from ``angle_min`` to ``angle_max`` (sensor frame, CCW).  For a full
     circle (span 2*pi) the last ray stops one increment short of ``angle_max`` so no
-    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range,
+    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range; the
+    noise standard deviation grows with range as ``noise_std + noise_std_per_m * r`` (a
+    triangulation lidar such as the LDS-01 is specified in percent of the range).
     ``dropout_prob`` loses single beams (reported as +inf, no return) and
     ``scan_dropout_prob`` whole scans (nothing published).
     """
@@ -83,6 +85,7 @@ class LidarParams(Params):
     range_min: float = Field(default=0.12, ge=0.0)
     range_max: float = Field(default=12.0, gt=0.0)
     noise_std: float = Field(default=0.0, ge=0.0)
+    noise_std_per_m: float = Field(default=0.0, ge=0.0)
     bias: float = 0.0
     dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
     scan_dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
@@ -150,6 +153,29 @@ class ImuParams(Params):
     accel_noise_std: float = Field(default=0.0, ge=0.0)
     accel_bias: Vec3 = (0.0, 0.0, 0.0)
     dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+
+
+class CameraParams(Params):
+    """A forward camera's geometry (sensor_msgs/CameraInfo basics): ``width`` x ``height``
+    pixels, ``horizontal_fov`` [rad], frame rate, mount, and the distance up to which a
+    target is considered visible (``max_range`` [m]).
+
+    The simulator renders no images; what uses a camera here asks what it *could* see
+    (a target inside the field of view, within range and in line of sight), e.g. a
+    mission's "target seen" stop condition.  Off unless a profile enables it.
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    topic: str = "camera/image_raw"
+    frame_id: str = "camera_link"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=30.0, gt=0.0)
+    width: int = Field(default=640, ge=1)
+    height: int = Field(default=480, ge=1)
+    horizontal_fov: float = Field(default=1.047, gt=0.0, lt=math.pi)
+    max_range: float = Field(default=3.0, gt=0.0)
 
 
 class GroundTruthParams(Params):
@@ -252,13 +278,14 @@ class MagnetometerParams(Params):
 class SensorsParams(Params):
     """The robot's sensor suite; each sensor can be switched off with ``enabled: false``.
 
-    ``gnss`` and ``magnetometer`` are off unless a profile enables them;
+    ``gnss``, ``magnetometer`` and ``camera`` are off unless a profile enables them;
     ``georeference`` places the world on the Earth for both.
     """
 
     lidar: LidarParams = Field(default_factory=LidarParams)
     odometry: OdometryParams = Field(default_factory=OdometryParams)
     imu: ImuParams = Field(default_factory=ImuParams)
+    camera: CameraParams = Field(default_factory=CameraParams)
     ground_truth: GroundTruthParams = Field(default_factory=GroundTruthParams)
     gnss: GnssParams = Field(default_factory=GnssParams)
     magnetometer: MagnetometerParams = Field(default_factory=MagnetometerParams)
