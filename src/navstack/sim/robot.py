@@ -65,7 +65,9 @@ class LidarParams(Params):
 
     ``beams`` rays from ``angle_min`` to ``angle_max`` (sensor frame, CCW).  For a full
     circle (span 2*pi) the last ray stops one increment short of ``angle_max`` so no
-    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range,
+    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range; the
+    noise standard deviation grows with range as ``noise_std + noise_std_per_m * r`` (a
+    triangulation lidar such as the LDS-01 is specified in percent of the range).
     ``dropout_prob`` loses single beams (reported as +inf, no return) and
     ``scan_dropout_prob`` whole scans (nothing published).
     """
@@ -83,6 +85,7 @@ class LidarParams(Params):
     range_min: float = Field(default=0.12, ge=0.0)
     range_max: float = Field(default=12.0, gt=0.0)
     noise_std: float = Field(default=0.0, ge=0.0)
+    noise_std_per_m: float = Field(default=0.0, ge=0.0)
     bias: float = 0.0
     dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
     scan_dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
