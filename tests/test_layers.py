@@ -7,8 +7,10 @@ with a literal name -- and compared with what its layer may import:
 
 * the algorithm packages (costmap, planning, control, localization, mapping, perception,
   geo) import only ``core`` and each other: no runtime/bus, no node layer, nothing above;
-* the node layer (``nodes``) adapts algorithms to the bus: core, runtime and algorithms,
-  nothing above it and not ``navigation`` beside it;
+* the node layer (``nodes``) adapts algorithms and vehicle links to the bus: core,
+  runtime, algorithms and drivers, nothing above it and not ``navigation`` beside it;
+* ``drivers`` is pure protocol and transport code: only ``core`` (no bus, no algorithm,
+  no simulator, nothing above);
 * ``core`` imports only itself -- except the costmap data types that the plugin
   interfaces of ``core/interfaces.py`` name in annotations (under ``if TYPE_CHECKING:``
   only, so nothing is imported at run time; see :data:`ANNOTATION_ONLY`).
@@ -34,7 +36,9 @@ ABOVE_ALGORITHMS = ("runtime", "nodes", "navigation", "interfaces", "benchmarks"
                     "drivers", "missions", "app")
 RULES: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(ALGORITHMS, ABOVE_ALGORITHMS),
-    "nodes": ("navigation", "interfaces", "benchmarks", "sim", "drivers", "missions", "app"),
+    "nodes": ("navigation", "interfaces", "benchmarks", "sim", "missions", "app"),
+    "drivers": (*ALGORITHMS, "runtime", "nodes", "navigation", "interfaces", "benchmarks", "sim",
+                "missions", "app"),
     "core": (*ALGORITHMS, *ABOVE_ALGORITHMS),
 }
 # (importing module, imported module) pairs allowed under ``if TYPE_CHECKING:`` only: the
@@ -130,7 +134,7 @@ def test_annotation_only_exceptions_are_used_and_guarded() -> None:
 
 
 def test_every_algorithm_package_exists_and_is_checked() -> None:
-    for package in (*ALGORITHMS, "nodes", "core"):
+    for package in (*ALGORITHMS, "nodes", "drivers", "core"):
         assert (SRC / package / "__init__.py").is_file(), package
         assert any((SRC / package).rglob("*.py"))
 

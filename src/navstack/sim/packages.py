@@ -42,7 +42,7 @@ class PackageWorld:
         self.closed = False
         self.carried: int | None = None
         self._offset = Pose2D()
-        self._closing_until = -math.inf
+        self.closing_until = -math.inf
         self._pending: int | None = None
         self.collisions = [0] * len(packages)
         self._last_contact = [-math.inf] * len(packages)
@@ -73,7 +73,7 @@ class PackageWorld:
         if self.carried is not None:
             return self.carried
         self._pending = self.in_reach(robot)
-        self._closing_until = now + self.params.close_time
+        self.closing_until = now + self.params.close_time
         return self._pending
 
     def open(self) -> int | None:
@@ -84,7 +84,7 @@ class PackageWorld:
 
     def update(self, robot: Pose2D, now: float) -> None:
         """Finish a closing gripper and move the carried package with the robot."""
-        if self._pending is not None and now >= self._closing_until:
+        if self._pending is not None and now >= self.closing_until:
             i = self._pending
             self._pending = None
             if self.in_reach(robot) == i:  # still there when the jaws meet
