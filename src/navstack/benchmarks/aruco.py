@@ -9,7 +9,7 @@ sight, anywhere across the image (bearing up to +-0.3 rad) and at heights from 0
 * 10 cm markers (``DICT_4X4_50``) with the ``diff_drive`` profile's camera (the Nav2 lab's
   640 x 480, 1.047 rad): ``detection_rate_<d>m``, ``position_p95_cm_<d>m`` (error of the
   marker's position in the camera frame), ``orientation_p95_deg_<d>m``;
-* the TurtleBot course's 5 cm markers with the ``turtlebot`` profile's camera (the Waffle
+* the TurtleBot course's 5 cm markers with the ``turtlebot3_waffle_pi`` camera (the Waffle
   Pi's Raspberry Pi camera, mounted 8.4 cm above the floor, markers at package height
   2.5 cm ... 0.3 m): ``turtlebot_5cm_detection_<d>m`` at 1.5, 2, 2.5 m;
 * ``detect_pose_ms``: median time of detection + pose per frame (all frames);
@@ -109,13 +109,13 @@ def run(quick: bool = False, data_dir: Any = None) -> BenchResult:
     del data_dir
     views = 10 if quick else 40
     lab = load_robot("diff_drive").sensors.camera
-    course = load_robot("turtlebot").sensors.camera
+    course = load_robot("turtlebot3_waffle_pi").sensors.camera
     cases = []
     for i, d in enumerate((1.0, 2.0, 3.0, 4.0)):
         cases.append(_case(lab, 0.10, "DICT_4X4_50", d, views, 100 + i, (0.2, 0.5)))
     for i, d in enumerate((1.5, 2.0, 2.5)):
         case = _case(course, 0.05, "DICT_4X4_50", d, views, 200 + i, (0.025, 0.3))
-        case["robot"] = "turtlebot"
+        case["robot"] = "turtlebot3_waffle_pi"
         cases.append(case)
     original = _case(lab, 0.10, "DICT_ARUCO_ORIGINAL", 2.0, views, 300, (0.2, 0.5))
     cases.append(original)

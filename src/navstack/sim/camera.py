@@ -397,7 +397,8 @@ class CameraModel:
         big = (cv2.resize(region, (bw * k, bh * k), interpolation=cv2.INTER_NEAREST)
                if k > 1 else region.copy())
         h = cv2.getPerspectiveTransform(src, dst)
-        cv2.warpPerspective(tex, h, (bw * k, bh * k), dst=big, flags=cv2.INTER_LINEAR,
+        cv2.warpPerspective(tex, h, (bw * k, bh * k), dst=big,
+                            flags=cv2.INTER_NEAREST if k >= 3 else cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_TRANSPARENT)
         small = cv2.resize(big, (bw, bh), interpolation=cv2.INTER_AREA) if k > 1 else big
         cols = np.arange(x0, x1)

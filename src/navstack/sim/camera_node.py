@@ -26,6 +26,7 @@ from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 from navstack.sim.camera import CameraModel
 from navstack.sim.node import SimulatorNode
+from navstack.sim.robot import CameraParams
 
 OPTICAL_ROTATION = Quaternion(-0.5, 0.5, -0.5, 0.5)
 """Rotation of an optical frame in its body frame (x right, y down, z forward)."""
@@ -39,9 +40,10 @@ class SimCameraNode(Node):
     """Publishes the robot profile's camera (see module docstring)."""
 
     def __init__(self, runtime: Runtime, sim_node: SimulatorNode, seed: int = 0,
-                 name: str = "camera") -> None:
+                 name: str = "camera", params: CameraParams | None = None) -> None:
+        """``params``: the camera to simulate (default: the robot profile's)."""
         super().__init__(name, runtime)
-        params = sim_node.sim.robot.sensors.camera
+        params = params or sim_node.sim.robot.sensors.camera
         if not params.enabled:
             raise ConfigError("the robot profile's camera is disabled",
                               key_path="robot.sensors.camera.enabled",
