@@ -220,13 +220,13 @@ class MarkerMap:
             q = matrix_to_quaternion(e.rotation)
             c = e.covariance
             markers.append({
-                "id": e.id, "size": round(e.size, 6),
+                "id": int(e.id), "size": round(float(e.size), 6),
                 "position": [round(float(v), 6) for v in e.position],
-                "orientation": [round(v, 9) for v in (q.x, q.y, q.z, q.w)],
-                "yaw": round(e.yaw, 6),
+                "orientation": [round(float(v), 9) for v in (q.x, q.y, q.z, q.w)],
+                "yaw": round(float(e.yaw), 6),
                 "covariance": [float(f"{v:.6g}") for v in (c[0, 0], c[0, 1], c[0, 2], c[1, 1],
                                                           c[1, 2], c[2, 2])],
-                "sightings": e.sightings})
+                "sightings": int(e.sightings)})
         return {"frame_id": self.frame_id, "markers": markers}
 
     def save(self, path: str | Path) -> Path:
