@@ -23,7 +23,8 @@ EXPECTED = {"/map": "foxglove.Grid", "/global_costmap/costmap": "foxglove.Grid",
             "/tf": "foxglove.FrameTransforms", "/tf_static": "foxglove.FrameTransforms",
             "/odom": "foxglove.Odometry", "/plan": "foxglove.PosesInFrame",
             "/local_plan": "foxglove.PosesInFrame", "/footprint": "foxglove.SceneUpdate",
-            "/markers": "foxglove.SceneUpdate"}
+            "/markers": "foxglove.SceneUpdate",
+            "/aruco/marker_map/markers": "foxglove.SceneUpdate"}
 
 
 def _varint(buf: bytes, i: int) -> tuple[int, int]:

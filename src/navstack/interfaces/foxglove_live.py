@@ -18,6 +18,7 @@ topic                       schema                      source
 ``/local_plan``             ``foxglove.PosesInFrame``   controller's chosen trajectory (DWB)
 ``/footprint``              ``foxglove.SceneUpdate``    robot body, locked to ``base_link``
 ``/markers``                ``foxglove.SceneUpdate``    goal(s), waypoints, e-stop label
+``/aruco/marker_map/...``   ``foxglove.SceneUpdate``    ArUco markers and packages on the map
 ==========================  ==========================  ==========================================
 
 Settings follow ``foxglove_bridge``'s parameter names (``port`` 8765, ``address``), except
@@ -47,12 +48,15 @@ from pydantic import Field
 from navstack.core.errors import NavstackError, TransformError
 from navstack.core.msgs import (
     LaserScan,
+    MarkerArray,
     OccupancyGrid,
     Odometry,
     Path,
     TFMessage,
 )
+from navstack.core.msgs.fiducial_msgs import MARKER_MAP_VIZ_TOPIC as ARUCO_TOPIC
 from navstack.core.params import Params
+from navstack.interfaces.foxglove_markers import marker_array_scene
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.stack import NavStack
 from navstack.navigation import messages as m
@@ -168,6 +172,7 @@ class FoxgloveLive:
         self.local_plan = fc.PosesInFrameChannel("/local_plan", context=ctx)
         self.footprint = fc.SceneUpdateChannel("/footprint", context=ctx)
         self.markers = fc.SceneUpdateChannel("/markers", context=ctx)
+        self.aruco = fc.SceneUpdateChannel(ARUCO_TOPIC, context=ctx)
         try:
             self.server = foxglove.start_server(
                 name="navstack", host=p.address, port=p.port, context=ctx,
@@ -203,6 +208,7 @@ class FoxgloveLive:
             self._subs.append(bus.subscribe("/odom", Odometry, self._on_odom, QoS(depth=10)))
             plan_topic = getattr(stack.planner.params, "plan_topic", "/plan")
             self._subs.append(bus.subscribe(plan_topic, Path, self._on_plan, LATCHED))
+            self._subs.append(bus.subscribe(ARUCO_TOPIC, MarkerArray, self._on_aruco, LATCHED))
 
         self.runner.call(setup)
         self._remove_observer = self.runner.add_observer(self._on_step)
@@ -260,6 +266,11 @@ class FoxgloveLive:
             angular_velocity=fm.Vector3(x=tw.angular.x, y=tw.angular.y, z=tw.angular.z)),
             msg.header.stamp)
 
+    def _on_aruco(self, msg: MarkerArray) -> None:
+        self._latched[ARUCO_TOPIC] = msg
+        if self.aruco.has_sinks():
+            self._log(self.aruco, marker_array_scene(msg, _ns(self.stack.now)), self.stack.now)
+
     def _on_plan(self, path: Path) -> None:
         self._latched["/plan"] = path
         if self.plan.has_sinks():
@@ -275,7 +286,7 @@ class FoxgloveLive:
         resend = self._listener.resend
         if wall - self._last_republish >= self.params.republish_period:
             self._last_republish = wall
-            resend.update((*GRIDS, "/tf_static", "/plan", "/footprint"))
+            resend.update((*GRIDS, "/tf_static", "/plan", "/footprint", ARUCO_TOPIC))
         while resend:
             self._republish(resend.pop(), now)
         if wall - self._last_frame < 1.0 / self.params.frame_rate:
@@ -295,6 +306,8 @@ class FoxgloveLive:
             self._log(self.tf_static, tf_message(latched), now)
         elif topic == "/plan" and latched is not None and self.plan.has_sinks():
             self._send_plan(latched)
+        elif topic == ARUCO_TOPIC and latched is not None and self.aruco.has_sinks():
+            self._log(self.aruco, marker_array_scene(latched, _ns(now)), now)
         elif topic == "/footprint" and self.footprint.has_sinks():
             self._log(self.footprint, self._footprint(now), now)
 

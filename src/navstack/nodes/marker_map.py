@@ -38,12 +38,18 @@ from navstack.core.msgs import (
     MarkerArray,
     Point,
     PointCloud2,
+    Pose,
     PoseWithCovariance,
     TFMessage,
     TransformStamped,
     Vector3,
 )
-from navstack.core.msgs.fiducial_msgs import ArucoMarker, ArucoMarkerArray
+from navstack.core.msgs.fiducial_msgs import (
+    MARKER_MAP_TOPIC,
+    MARKER_MAP_VIZ_TOPIC,
+    ArucoMarker,
+    ArucoMarkerArray,
+)
 from navstack.core.params import Params
 from navstack.core.rotations import (
     matrix_to_pose,
@@ -113,8 +119,8 @@ class MarkerMapNode(Node):
                                  QoS(depth=30))
         self.pub_tf_static = self.create_publisher("/tf_static", TFMessage,
                                                    QoS(depth=1, latched=True))
-        self.pub_map = self.create_publisher("/aruco/marker_map", ArucoMarkerArray, LATCHED)
-        self.pub_viz = self.create_publisher("/aruco/marker_map/markers", MarkerArray, LATCHED)
+        self.pub_map = self.create_publisher(MARKER_MAP_TOPIC, ArucoMarkerArray, LATCHED)
+        self.pub_viz = self.create_publisher(MARKER_MAP_VIZ_TOPIC, MarkerArray, LATCHED)
         self.pub_cloud = self.create_publisher(p.cloud_topic, PointCloud2, QoS(depth=1))
         self.bus.advertise_service("/marker_map/save", self._save)
         self.bus.advertise_service("/marker_map/load", self._load)
@@ -197,8 +203,14 @@ class MarkerMapNode(Node):
             self.pub_tf_static.publish(TFMessage(tuple(tfs)))
         head = Header(now, p.map_frame)
         self.pub_map.publish(ArucoMarkerArray(head, tuple(_aruco(e, head) for e in estimates)))
-        self.pub_viz.publish(MarkerArray(tuple(m for e in estimates
-                                               for m in _visual(e, head))))
+        self._publish_viz()
+
+    def _publish_viz(self) -> None:
+        head = Header(self.now, self.params.map_frame)
+        markers = [m for e in self.map.estimates() for m in _visual(e, head)]
+        for pid, (x, y) in self.package_centres().items():
+            markers += _package_visual(pid, x, y, self.params.ring_diameter, head)
+        self.pub_viz.publish(MarkerArray(tuple(markers)))
 
     def package_centres(self) -> dict[int, tuple[float, float]]:
         """Estimated centre (x, y) of every published, not ignored package."""
@@ -223,6 +235,8 @@ class MarkerMapNode(Node):
                             p.ring_height)
         for pid in centres:
             self.package_in_cloud.setdefault(pid, self.now)
+        if tuple(centres) != self._cloud_ids:
+            self._publish_viz()
         self._cloud_ids = tuple(centres)
         cols: dict[str, NDArray[np.generic]] = {c: pts[:, i].astype(np.float32)
                                                 for i, c in enumerate("xyz")}
@@ -254,13 +268,22 @@ def _visual(e: MarkerEstimate, header: Header) -> tuple[Marker, Marker]:
     pose = matrix_to_pose(e.matrix())
     cube = Marker(header, "aruco_markers", e.id, Marker.CUBE, Marker.ADD, pose,
                   Vector3(size, size, 0.01), ColorRGBA(0.1, 0.6, 1.0, 0.9))
-    label_pose = matrix_to_pose(e.matrix())
     text = Marker(header, "aruco_marker_ids", e.id, Marker.TEXT_VIEW_FACING, Marker.ADD,
-                  type(label_pose)(Point(label_pose.position.x, label_pose.position.y,
-                                         label_pose.position.z + max(size, 0.1))),
+                  Pose(Point(pose.position.x, pose.position.y, pose.position.z + max(size, 0.1))),
                   Vector3(0.15, 0.15, 0.15), ColorRGBA(1.0, 1.0, 1.0, 1.0),
                   text=f"aruco {e.id}")
     return cube, text
+
+
+def _package_visual(pid: int, x: float, y: float, diameter: float, header: Header
+                    ) -> tuple[Marker, Marker]:
+    ring = Marker(header, "packages", pid, Marker.CYLINDER, Marker.ADD,
+                  Pose(Point(x, y, 0.025)), Vector3(diameter, diameter, 0.05),
+                  ColorRGBA(1.0, 0.6, 0.1, 0.6))
+    text = Marker(header, "package_ids", pid, Marker.TEXT_VIEW_FACING, Marker.ADD,
+                  Pose(Point(x, y, 0.25)), Vector3(0.12, 0.12, 0.12),
+                  ColorRGBA(1.0, 1.0, 1.0, 1.0), text=f"package {pid}")
+    return ring, text
 
 
 __all__ = ["MarkerMapNode", "MarkerMapNodeParams"]

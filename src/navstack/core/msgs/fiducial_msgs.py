@@ -22,6 +22,11 @@ from numpy.typing import NDArray
 from navstack.core.msgs.geometry_msgs import PoseWithCovariance
 from navstack.core.msgs.std import Header
 
+MARKER_MAP_TOPIC = "/aruco/marker_map"
+"""aruco_msgs/MarkerArray of the fused markers in the map frame (latched)."""
+MARKER_MAP_VIZ_TOPIC = "/aruco/marker_map/markers"
+"""visualization_msgs/MarkerArray of the fused markers and packages (latched)."""
+
 
 @dataclass(frozen=True, slots=True)
 class Fiducial:
@@ -77,4 +82,5 @@ class ArucoMarkerArray:
     markers: tuple[ArucoMarker, ...] = ()
 
 
-__all__ = ["ArucoMarker", "ArucoMarkerArray", "Fiducial", "FiducialArray"]
+__all__ = ["MARKER_MAP_TOPIC", "MARKER_MAP_VIZ_TOPIC", "ArucoMarker", "ArucoMarkerArray",
+           "Fiducial", "FiducialArray"]

@@ -30,12 +30,15 @@ from navstack.core.errors import TransformError
 from navstack.core.geometry import se2_apply
 from navstack.core.msgs import (
     LaserScan,
+    MarkerArray,
     OccupancyGrid,
     Odometry,
     Path,
     Pose2D,
     PoseWithCovarianceStamped,
 )
+from navstack.core.msgs.fiducial_msgs import MARKER_MAP_VIZ_TOPIC as ARUCO_TOPIC
+from navstack.core.rotations import quaternion_to_matrix
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.web.commands import NavCommander
 from navstack.interfaces.web.images import Scheme, grid_png
@@ -119,6 +122,7 @@ class DashboardModel:
         self.trail: tuple[int, list[tuple[float, float]]] = (0, [])
         self._scan: LaserScan | None = None
         self._loc: tuple[str, float, NDArray[np.float64]] | None = None
+        self._aruco: list[list[Any]] = []
         self._grids: dict[str, OccupancyGrid] = {}
         self._subs: list[Subscription[Any]] = []
         self._last_frame_wall = -math.inf
@@ -140,6 +144,7 @@ class DashboardModel:
                                             self._on_amcl, QoS(depth=1)))
             self._subs.append(bus.subscribe("/odometry/filtered", Odometry, self._on_ekf,
                                             QoS(depth=1)))
+            self._subs.append(bus.subscribe(ARUCO_TOPIC, MarkerArray, self._on_aruco, LATCHED))
             self._build_frame(self.stack.now)
 
         self.runner.call(setup)
@@ -170,6 +175,19 @@ class DashboardModel:
             except TransformError:
                 return
         self.plan = (self.plan[0] + 1, _flat(np.asarray(xy), 1000))
+
+    def _on_aruco(self, msg: MarkerArray) -> None:
+        """ArUco markers and packages on the map: ``[id, x, y, facing yaw, kind]`` (map
+        frame; the facing yaw is the marker's z axis)."""
+        out = []
+        for m in msg.markers:
+            if m.ns not in ("aruco_markers", "packages") or (m.header.frame_id or "map") != "map":
+                continue
+            r = quaternion_to_matrix(m.pose.orientation)
+            facing = math.atan2(r[1, 2], r[0, 2]) if m.ns == "aruco_markers" else 0.0
+            out.append([m.id, round(m.pose.position.x, 3), round(m.pose.position.y, 3),
+                        round(facing, 3), "package" if m.ns == "packages" else "marker"])
+        self._aruco = out
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         self._loc = ("/amcl_pose", msg.header.stamp, np.asarray(msg.pose.covariance))
@@ -236,6 +254,7 @@ class DashboardModel:
             "local_plan": self._local_plan(),
             "nav": self.commander.status(),
             "waypoints": self.commander.waypoint_list()["waypoints"],
+            "aruco": self._aruco,
             "estop": self.runner.estop.state(),
             "health": self._health(now, counts),
             "layers": {k: v.version for k, v in self.layers.items()},

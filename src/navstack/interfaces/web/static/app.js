@@ -7,7 +7,7 @@
 const COLORS = {
   background: "#20242b", robot: "rgb(0,160,255)", robotEdge: "#00121f",
   scan: "#ff1744", plan: "#00e676", localPlan: "#ffd600", trail: "#ff9800",
-  goal: "#ff00ff", waypoint: "#b388ff",
+  goal: "#ff00ff", waypoint: "#b388ff", aruco: "#18ffff", package: "#ffab40",
 };
 
 const S = {
@@ -203,6 +203,35 @@ function arrow(x, y, th, color, len) {
   ctx.stroke();
 }
 
+// an ArUco marker on the map (a bar along its surface, a tick where it faces, its id) or
+// a package (the ring the costmap avoids)
+function drawAruco([id, x, y, yaw, kind]) {
+  const px = 1 / S.view.s;
+  ctx.lineWidth = 3 * px;
+  if (kind === "package") {
+    ctx.beginPath();
+    ctx.arc(x, y, 0.15, 0, 2 * Math.PI);
+    ctx.strokeStyle = COLORS.package;
+    ctx.stroke();
+  } else {
+    const c = Math.cos(yaw), s = Math.sin(yaw), h = 0.15;
+    ctx.beginPath();
+    ctx.moveTo(x + s * h, y - c * h);
+    ctx.lineTo(x - s * h, y + c * h);
+    ctx.moveTo(x, y);
+    ctx.lineTo(x + c * 0.12, y + s * 0.12);
+    ctx.strokeStyle = COLORS.aruco;
+    ctx.stroke();
+  }
+  ctx.save();
+  ctx.translate(x, y);
+  ctx.scale(px, -px);
+  ctx.fillStyle = kind === "package" ? COLORS.package : COLORS.aruco;
+  ctx.font = "12px sans-serif";
+  ctx.fillText(String(id), 6, -6);
+  ctx.restore();
+}
+
 function drawRobot(pose) {
   const [x, y, th] = pose;
   const c = Math.cos(th), s = Math.sin(th);
@@ -249,6 +278,7 @@ function render() {
       for (let i = 0; i < st.scan.length; i += 2) ctx.fillRect(st.scan[i] - d / 2, st.scan[i + 1] - d / 2, d, d);
     }
     st.waypoints.forEach(([x, y, th]) => arrow(x, y, th, COLORS.waypoint, 0.5));
+    (st.aruco || []).forEach(drawAruco);
     const goals = st.nav.status === "EXECUTING" || st.nav.status === "ACCEPTED" ? st.nav.goals : [];
     goals.forEach(([x, y, th]) => arrow(x, y, th, COLORS.goal, 0.6));
     if (st.robot) drawRobot(st.robot);
