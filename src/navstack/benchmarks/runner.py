@@ -26,6 +26,8 @@ SUITE_MODULES: dict[str, str] = {
     "hybrid": "navstack.benchmarks.hybrid",
     "camera": "navstack.benchmarks.camera",
     "aruco": "navstack.benchmarks.aruco",
+    "marker-frame": "navstack.benchmarks.marker_frame",
+    "retrieval": "navstack.benchmarks.retrieval",
 }
 
 

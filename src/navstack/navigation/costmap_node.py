@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.errors import ConfigError, TransformError
+from navstack.core.errors import ConfigError, ExtrapolationError, TransformError
 from navstack.core.msgs import (
     Header,
     LaserScan,
@@ -146,18 +146,25 @@ class CostmapNode(Node):
 
     def _on_cloud(self, layer: ObstacleLayer, source: str, cloud: PointCloud2) -> None:
         """A PointCloud2 source: points into ``global_frame``; the sensor origin is
-        ``sensor_frame``'s (Nav2), else the cloud frame's."""
+        ``sensor_frame``'s (Nav2), else the cloud frame's.  A cloud stamped between two
+        samples of a dynamic transform that has no newer one yet (a map-frame cloud of
+        virtual obstacles, published at any time) uses the latest transforms."""
         frame, stamp = cloud.header.frame_id, cloud.header.stamp
         sensor = layer.buffers[source].params.sensor_frame or frame
         try:
-            tf_cloud = transform_to_matrix(self.tf.lookup(self.global_frame, frame, stamp)
-                                           .transform)
-            origin = self.tf.lookup(self.global_frame, sensor, stamp).transform.translation
+            try:
+                tf_cloud = self.tf.lookup(self.global_frame, frame, stamp)
+                at_origin = self.tf.lookup(self.global_frame, sensor, stamp)
+            except ExtrapolationError:
+                tf_cloud = self.tf.lookup(self.global_frame, frame)
+                at_origin = self.tf.lookup(self.global_frame, sensor)
         except TransformError as exc:
             self.tf_failed(exc)
             return
+        origin = at_origin.transform.translation
+        matrix = transform_to_matrix(tf_cloud.transform)
         xyz = cloud.xyz() if cloud.width * cloud.height else np.zeros((0, 3))
-        points = xyz @ tf_cloud[:3, :3].T + tf_cloud[:3, 3]
+        points = xyz @ matrix[:3, :3].T + matrix[:3, 3]
         layer.add_points(points, (origin.x, origin.y, origin.z), source, stamp)
 
     def tf_failed(self, exc: Exception) -> None:

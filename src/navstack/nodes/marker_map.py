@@ -19,8 +19,10 @@ spread over its size: ``package_position_floor``) and each becomes a ring of poi
 ``/package_cloud`` (sensor_msgs/PointCloud2, map frame; 25 points, 0.3 m across, z 0.05)
 whenever the set changes and every ``cloud_period`` seconds, for the obstacle layer's
 ``package_cloud`` source.  ``ignore_package(id)`` removes a package from the cloud (the
-one the gripper holds).  Services: ``/marker_map/save`` (a path -> the YAML written) and
-``/marker_map/load`` (a path -> the number of markers loaded).
+one the gripper holds; also the service ``/package_cloud/ignore``).  ``/aruco/packages``
+(latched) lists the packages found with their centres.  Services: ``/marker_map/save``
+(a path -> the YAML written) and ``/marker_map/load`` (a path -> the number of markers
+loaded).
 """
 
 from __future__ import annotations
@@ -45,8 +47,10 @@ from navstack.core.msgs import (
     Vector3,
 )
 from navstack.core.msgs.fiducial_msgs import (
+    IGNORE_PACKAGE_SERVICE,
     MARKER_MAP_TOPIC,
     MARKER_MAP_VIZ_TOPIC,
+    PACKAGES_TOPIC,
     ArucoMarker,
     ArucoMarkerArray,
 )
@@ -82,8 +86,13 @@ class MarkerMapNodeParams(Params):
     transform_timeout: float = Field(default=0.5, ge=0.0)
     package_ids: list[int] = Field(default_factory=list)
     package_position_floor: float = Field(default=0.06, ge=0.0)
+    package_min_sightings: int = Field(default=1, ge=1)
+    """A package enters the cloud on its first sighting: the course asks the system to
+    respond within 0.4 s, and a ring in the wrong place costs a detour, not a collision."""
     package_depth: float = Field(default=0.03, ge=0.0)
     """How far behind its marker [m] a package's centre is assumed (half its depth)."""
+    freeze_ignored: bool = False
+    """Stop updating an ignored package's estimate (default: keep tracking it)."""
     cloud_topic: str = "/package_cloud"
     cloud_period: float = Field(default=1.0, gt=0.0)
     ring_diameter: float = Field(default=0.3, gt=0.0)
@@ -99,14 +108,18 @@ class MarkerMapNode(Node):
         super().__init__(name, runtime)
         self.params = p = params or MarkerMapNodeParams()
         self.map = marker_map or MarkerMap(p.fusion, p.map_frame)
-        self.packages = MarkerMap(p.fusion.updated(position_floor=p.package_position_floor),
+        self.packages = MarkerMap(p.fusion.updated(position_floor=p.package_position_floor,
+                                                    min_sightings=p.package_min_sightings),
                                   p.map_frame)
         self._package_ids = set(p.package_ids)
         self.ignored_packages: set[int] = set()
         self._sent: dict[int, np.ndarray] = {}
         self.package_first_seen: dict[int, float] = {}
+        """Stamp of the first image in which each package was detected."""
         self.package_in_cloud: dict[int, float] = {}
         self._cloud_ids: tuple[int, ...] = ()
+        self.cloud_rings: dict[int, np.ndarray] = {}
+        """The ring points (map frame) of each package in the last published cloud."""
         self.sightings = 0
         self.tf_drops = 0
 
@@ -122,8 +135,10 @@ class MarkerMapNode(Node):
         self.pub_map = self.create_publisher(MARKER_MAP_TOPIC, ArucoMarkerArray, LATCHED)
         self.pub_viz = self.create_publisher(MARKER_MAP_VIZ_TOPIC, MarkerArray, LATCHED)
         self.pub_cloud = self.create_publisher(p.cloud_topic, PointCloud2, QoS(depth=1))
+        self.pub_packages = self.create_publisher(PACKAGES_TOPIC, ArucoMarkerArray, LATCHED)
         self.bus.advertise_service("/marker_map/save", self._save)
         self.bus.advertise_service("/marker_map/load", self._load)
+        self.bus.advertise_service(IGNORE_PACKAGE_SERVICE, self._ignore)
         if self._package_ids:
             self.create_timer(p.cloud_period, self.publish_cloud)
 
@@ -133,8 +148,8 @@ class MarkerMapNode(Node):
 
     def on_cleanup(self) -> None:
         self.filter.clear()
-        self.bus.remove_service("/marker_map/save")
-        self.bus.remove_service("/marker_map/load")
+        for service in ("/marker_map/save", "/marker_map/load", IGNORE_PACKAGE_SERVICE):
+            self.bus.remove_service(service)
 
     # --- input ----------------------------------------------------------------------------
     def _lookup(self, msg: ArucoMarkerArray) -> np.ndarray:
@@ -162,12 +177,13 @@ class MarkerMapNode(Node):
                                 msg.header.stamp, ambiguity, float(np.linalg.norm(in_cam[:3, 3])))
             self.sightings += 1
             if m.id in self._package_ids:
-                if m.id in self.ignored_packages:
+                if m.id in self.ignored_packages and self.params.freeze_ignored:
                     continue
                 before = self.packages.estimate(m.id)
                 est = self.packages.add(m.id, sighting)
-                if est is not None and est.published:
+                if est is not None:
                     self.package_first_seen.setdefault(m.id, msg.header.stamp)
+                if est is not None and est.published:
                     packages_changed |= before is None or not before.published or float(
                         np.linalg.norm(est.position - before.position)) > 0.02
                 continue
@@ -212,11 +228,12 @@ class MarkerMapNode(Node):
             markers += _package_visual(pid, x, y, self.params.ring_diameter, head)
         self.pub_viz.publish(MarkerArray(tuple(markers)))
 
-    def package_centres(self) -> dict[int, tuple[float, float]]:
-        """Estimated centre (x, y) of every published, not ignored package."""
+    def package_centres(self, include_ignored: bool = False) -> dict[int, tuple[float, float]]:
+        """Estimated centre (x, y) of every published package (the ignored ones too with
+        ``include_ignored``)."""
         out = {}
         for e in self.packages.estimates():
-            if e.id in self.ignored_packages:
+            if e.id in self.ignored_packages and not include_ignored:
                 continue
             back = -self.params.package_depth * e.rotation[:, 2]
             out[e.id] = (float(e.position[0] + back[0]), float(e.position[1] + back[1]))
@@ -233,16 +250,32 @@ class MarkerMapNode(Node):
         centres = self.package_centres()
         pts = package_cloud(list(centres.values()), p.ring_diameter, p.ring_points,
                             p.ring_height)
+        self.cloud_rings = {pid: pts[i * p.ring_points:(i + 1) * p.ring_points]
+                            for i, pid in enumerate(centres)}
         for pid in centres:
             self.package_in_cloud.setdefault(pid, self.now)
         if tuple(centres) != self._cloud_ids:
             self._publish_viz()
         self._cloud_ids = tuple(centres)
+        head = Header(self.now, p.map_frame)
+        found = []
+        every = self.package_centres(include_ignored=True)
+        for e in self.packages.estimates():
+            if e.id in every:
+                m = e.matrix()
+                m[:2, 3] = every[e.id]
+                found.append(ArucoMarker(head, e.id, PoseWithCovariance(
+                    matrix_to_pose(m), _cov6(e.covariance)), 1.0))
+        self.pub_packages.publish(ArucoMarkerArray(head, tuple(found)))
         cols: dict[str, NDArray[np.generic]] = {c: pts[:, i].astype(np.float32)
                                                 for i, c in enumerate("xyz")}
         self.pub_cloud.publish(PointCloud2.from_fields(Header(self.now, p.map_frame), cols))
 
     # --- services -------------------------------------------------------------------------
+    def _ignore(self, package_id: int) -> bool:
+        self.ignore_package(int(package_id))
+        return True
+
     def _save(self, path: str | Path) -> str:
         return str(self.map.save(path))
 
@@ -255,11 +288,16 @@ class MarkerMapNode(Node):
         return len(loaded.estimates())
 
 
-def _aruco(e: MarkerEstimate, header: Header) -> ArucoMarker:
+def _cov6(position_cov: np.ndarray) -> np.ndarray:
     cov = np.zeros((6, 6))
-    cov[:3, :3] = e.covariance
+    cov[:3, :3] = position_cov
     cov[3:, 3:] = np.eye(3) * 1e-3
-    return ArucoMarker(header, e.id, PoseWithCovariance(matrix_to_pose(e.matrix()), cov),
+    return cov
+
+
+def _aruco(e: MarkerEstimate, header: Header) -> ArucoMarker:
+    return ArucoMarker(header, e.id, PoseWithCovariance(matrix_to_pose(e.matrix()),
+                                                        _cov6(e.covariance)),
                        min(1.0, e.inliers / 10.0))
 
 

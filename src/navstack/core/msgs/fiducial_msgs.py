@@ -26,6 +26,11 @@ MARKER_MAP_TOPIC = "/aruco/marker_map"
 """aruco_msgs/MarkerArray of the fused markers in the map frame (latched)."""
 MARKER_MAP_VIZ_TOPIC = "/aruco/marker_map/markers"
 """visualization_msgs/MarkerArray of the fused markers and packages (latched)."""
+PACKAGES_TOPIC = "/aruco/packages"
+"""aruco_msgs/MarkerArray of the packages found: each package's centre in the map frame
+(orientation: its marker's), latched."""
+IGNORE_PACKAGE_SERVICE = "/package_cloud/ignore"
+"""Service: a package id -> True; the package leaves the package cloud (being gripped)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,5 +87,5 @@ class ArucoMarkerArray:
     markers: tuple[ArucoMarker, ...] = ()
 
 
-__all__ = ["MARKER_MAP_TOPIC", "MARKER_MAP_VIZ_TOPIC", "ArucoMarker", "ArucoMarkerArray",
-           "Fiducial", "FiducialArray"]
+__all__ = ["IGNORE_PACKAGE_SERVICE", "MARKER_MAP_TOPIC", "MARKER_MAP_VIZ_TOPIC", "PACKAGES_TOPIC",
+           "ArucoMarker", "ArucoMarkerArray", "Fiducial", "FiducialArray"]

@@ -1,0 +1,168 @@
+"""Package retrieval in the arena (issue 17, acceptance 3), 20 seeds with random packages.
+
+Each seed places the TurtleBot course's two packages (10 x 5 x 5 cm, 5 cm ``DICT_4X4_50``
+markers on every face, ids 3 = target and 4) at random free spots of the ``arena`` world
+(at least 0.5 m from walls and obstacles -- the package's 0.3 m ring must leave the
+0.31 m wide robot a way past it --, 0.7 m from each other and 0.8 m from the start,
+random yaw), starts the ``turtlebot3_waffle_pi`` stack (its Nav2 parameters plus the
+``package_cloud`` observation source, global costmap at 5 Hz, see :func:`nav2_params`)
+with perfect localisation on the known map, attaches the camera (images at 10 Hz), the
+ArUco detector (5 cm markers), the marker map (packages 3 and 4) and the simulated gripper, and runs
+:func:`~navstack.missions.marker_missions.package_retrieval_tree` with a 600 s budget.
+
+Per run: success (the tree succeeded, the target is held and the robot is within 0.3 m
+of home), time to locate the target (simulated seconds from the start to the package's
+first detection), collisions with packages (simulator contacts), and the latency from
+the first detection of each package to its ring (the points last published) being LETHAL
+in the global costmap, polled every 20 ms.  Metrics: ``success_rate``, ``successes``,
+``locate_time_median_s``, ``package_collisions``, ``cloud_latency_p95_s`` (budgets:
+>= 19 of 20, <= 300 s, 0, <= 0.4 s).  ``--quick`` runs 3 seeds.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from navstack.benchmarks.common import BenchResult
+from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
+from navstack.interfaces.perception import PerceptionOptions, attach_perception, with_package_cloud
+from navstack.interfaces.stack import NavStack
+from navstack.missions.marker_behaviours import MarkerContext
+from navstack.missions.marker_missions import package_retrieval_tree, run_tree
+from navstack.missions.search_viewpoints import search_viewpoints
+from navstack.runtime.config import load_yaml
+from navstack.sim.markers import PackageSpec
+from navstack.sim.robot import load_robot
+from navstack.sim.world import World
+from navstack.sim.worlds import load_world
+
+TARGET, OTHER = 3, 4
+ROBOT = "turtlebot3_waffle_pi"
+PARAMS = "turtlebot3_waffle_pi_nav2_params.yaml"
+GRIP_DISTANCE = 0.166
+"""Package centre ahead of base_link when gripping: front edge 0.076 m + 9 cm (the reach
+zone is 0 .. 12 cm; a 5 cm end face then leaves 4 cm for the stop and the estimate)."""
+
+
+def place_packages(world: World, rng: np.random.Generator, clearance: float = 0.5,
+                   spacing: float = 0.7, from_start: float = 0.8) -> tuple[PackageSpec, ...]:
+    """The two course packages at random free spots (see module docstring)."""
+    dist = distance_transform_edt(~world.occupied) * world.resolution
+    free = np.argwhere(dist >= clearance)
+    placed: list[tuple[float, float]] = []
+    out = []
+    for pid in (TARGET, OTHER):
+        for _ in range(1000):
+            r, c = free[rng.integers(len(free))]
+            x, y = world.cell_center(int(r), int(c))
+            if math.hypot(x - world.spawn.x, y - world.spawn.y) < from_start:
+                continue
+            if any(math.hypot(x - px, y - py) < spacing for px, py in placed):
+                continue
+            placed.append((x, y))
+            out.append(PackageSpec(f"package_{pid}", pid, "DICT_4X4_50", x, y,
+                                   float(rng.uniform(-math.pi, math.pi))))
+            break
+    return tuple(out)
+
+
+def nav2_params() -> dict[str, Any]:
+    """The Waffle Pi's Nav2 parameters with the package cloud, and a wider, flatter
+    inflation in the global costmap (0.8 m, cost scaling 1.5; the file: 0.55 m, 3.0) so
+    plans keep away from package rings instead of threading the gap between a ring and a
+    wall, where the Waffle's wide rear body does not fit (measured on seeds 0-19: 14
+    successes instead of 10)."""
+    from importlib import resources
+
+    path = resources.files("navstack") / "config" / PARAMS
+    params = with_package_cloud(load_yaml(str(path)))
+    inflation = params["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]
+    inflation.update(inflation_radius=0.8, cost_scaling_factor=1.5)
+    return params
+
+
+def run_once(seed: int, timeout: float = 600.0, camera_rate_hz: float = 10.0
+             ) -> dict[str, Any]:
+    """One retrieval run (see module docstring)."""
+    world = load_world("arena")
+    rng = np.random.default_rng(1000 + seed)
+    world.packages = place_packages(world, rng)
+    stack = NavStack(world, load_robot(ROBOT), nav2_params(), seed=seed)
+    per = attach_perception(stack, PerceptionOptions(
+        camera_rate_hz=camera_rate_hz, detector={"marker_size": 0.05},
+        marker_map={"package_ids": [TARGET, OTHER]}))
+    ctx = MarkerContext(stack.runtime)
+    grid = world.to_occupancy_grid()
+    home = world.spawn
+    viewpoints = search_viewpoints(grid, home, clearance=0.3)
+    tree = package_retrieval_tree(ctx, TARGET, viewpoints, home, grid, GRIP_DISTANCE,
+                                  standoff=0.7)
+    # the virtual obstacle of a package in the global costmap: first time its ring is lethal
+    cm = stack.global_costmap.costmap
+    in_costmap: dict[int, float] = {}
+
+    def poll() -> None:
+        for pid, ring in per.marker_map.cloud_rings.items():
+            if pid in in_costmap:
+                continue
+            cells = [cm.world_to_map(float(x), float(y)) for x, y, _ in ring]
+            if all(c is not None and cm.data[c[1], c[0]] >= LETHAL_OBSTACLE for c in cells):
+                in_costmap[pid] = stack.now
+
+    stack.runtime.scheduler.create_timer(0.02, poll)
+    wall = time.perf_counter()
+    outcome = run_tree(stack.runtime, tree, timeout)
+    sim = stack.sim.sim
+    pose = sim.pose
+    home_dist = math.hypot(pose.x - home.x, pose.y - home.y)
+    held = sim.packages.carried is not None and sim.packages.specs[sim.packages.carried] \
+        .marker_id == TARGET
+    first = per.marker_map.package_first_seen
+    # a package's ring must reach the costmap; the target's only counts if it was not
+    # already taken out (to be gripped) by then
+    latencies = [in_costmap[p] - first[p] if p in in_costmap else math.inf for p in first
+                 if p in in_costmap or p not in per.marker_map.ignored_packages]
+    return {
+        "seed": seed, "success": bool(outcome.status.name == "SUCCESS" and held
+                                      and home_dist <= 0.3),
+        "status": outcome.status.name, "failed": outcome.failed,
+        "sim_time_s": round(outcome.duration, 1),
+        "locate_time_s": round(first[TARGET], 2) if TARGET in first else math.nan,
+        "held": held, "home_distance_m": round(home_dist, 3),
+        "package_collisions": int(sim.packages.total_collisions),
+        "collisions": int(sim.collisions),
+        "cloud_latency_s": [round(v, 3) for v in latencies],
+        "packages": [(round(p.x, 2), round(p.y, 2)) for p in world.packages],
+        "frames": per.camera.frames, "wall_s": round(time.perf_counter() - wall, 1)}
+
+
+def run(quick: bool = False, data_dir: Any = None) -> BenchResult:
+    """All seeds; metrics of the module docstring."""
+    del data_dir
+    seeds = list(range(3)) if quick else list(range(20))
+    cases = [run_once(s) for s in seeds]
+    located = [c["locate_time_s"] for c in cases if not math.isnan(c["locate_time_s"])]
+    latencies = [v for c in cases for v in c["cloud_latency_s"]]
+    result = BenchResult("retrieval")
+    n_ok = sum(c["success"] for c in cases)
+    result.metrics = {
+        "runs": float(len(cases)), "successes": float(n_ok), "success_rate": n_ok / len(cases),
+        "locate_time_median_s": float(statistics.median(located)) if located else math.nan,
+        "locate_time_max_s": max(located) if located else math.nan,
+        "package_collisions": float(sum(c["package_collisions"] for c in cases)),
+        "collisions": float(sum(c["collisions"] for c in cases)),
+        "cloud_latency_p95_s": float(np.percentile(latencies, 95)) if latencies else math.nan,
+        "home_distance_max_m": max(c["home_distance_m"] for c in cases),
+    }
+    result.cases = [{k: v for k, v in c.items() if k != "cloud_latency_s"} for c in cases]
+    result.show_cases = True
+    for c in cases:
+        if not c["success"]:
+            result.notes.append(f"seed {c['seed']}: {c['status']} {c['failed']}")
+    return result

@@ -1,0 +1,207 @@
+"""The perception missions of issue 17 as py_trees trees, and a loop that ticks a tree.
+
+* :func:`marker_frame_tree` (Nav2 lab, ``marker-frame`` in the office): go near the
+  tagged obstacle, look around until its marker is on the map, approach it to refine the
+  estimate (the marker map publishes ``map -> aruco_marker_<id>`` as a static frame), then
+  return to the start;
+* :func:`package_retrieval_tree` (TurtleBot course, ``package-retrieval`` in the arena):
+  look for the target package from the viewpoints of
+  :func:`~navstack.missions.search_viewpoints.search_viewpoints` (turning in place at each,
+  stopping as soon as the target is on the map), take the target's ring out of the
+  costmaps, drive to a pose in front of it, dock until it is in the gripper's reach,
+  grip, and return home with it.  The other packages stay in the costmaps through the
+  package cloud, so the planner routes around them.
+
+:func:`run_tree` ticks a tree on the stack's scheduler (``period`` of simulated time)
+until it ends or ``timeout`` passes.  It is the stand-in for the mission layer's runner
+(``navstack mission NAME``, being built on branch i16-missions): the lead wires these
+trees into it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import py_trees
+from py_trees.common import ParallelPolicy, Status
+from scipy.ndimage import distance_transform_edt
+
+from navstack.core.msgs import OccupancyGrid, Pose2D
+from navstack.core.rotations import quaternion_to_matrix
+from navstack.missions.marker_behaviours import (
+    ApproachMarker,
+    DockToPackage,
+    DriveStraightTo,
+    Grip,
+    IgnorePackage,
+    MarkerContext,
+    NavigateTo,
+    SpinSearch,
+    WaitFor,
+)
+from navstack.runtime.node import Runtime
+
+__all__ = ["TreeOutcome", "marker_frame_tree", "package_retrieval_tree", "run_tree",
+           "standoff_pose"]
+
+
+def _retry(name: str, child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+    """Whatever the child's outcome, go on (a search step that found nothing)."""
+    return py_trees.decorators.FailureIsSuccess(name=name, child=child)
+
+
+def marker_frame_tree(ctx: MarkerContext, marker_id: int, view: Pose2D, home: Pose2D,
+                      approach_distance: float = 1.0, min_inliers_wait: float = 3.0
+                      ) -> py_trees.behaviour.Behaviour:
+    """The Nav2 lab's vision task (module docstring)."""
+    on_map = lambda: marker_id in ctx.markers  # noqa: E731
+    look = py_trees.composites.Selector("detect the marker", memory=True, children=[
+        WaitFor("already on the map", ctx, on_map, timeout=1.0),
+        SpinSearch("look around", ctx, on_map)])
+    return py_trees.composites.Sequence("marker-frame", memory=True, children=[
+        NavigateTo("go near the tagged obstacle", ctx, lambda: view),
+        look,
+        ApproachMarker("approach the marker", ctx, marker_id, approach_distance),
+        _retry("refine the frame", WaitFor("refine", ctx, lambda: False,
+                                           timeout=min_inliers_wait)),
+        NavigateTo("return to the start", ctx, lambda: home),
+        _settle(ctx, home)])
+
+
+def _settle(ctx: MarkerContext, home: Pose2D) -> py_trees.behaviour.Behaviour:
+    """The last centimetres home: the navigator stops within its goal tolerance (0.25 m);
+    the start pose is to be reached, so drive straight onto it (it is free: we left it)."""
+    return DriveStraightTo("onto the start", ctx, lambda: (home.x, home.y), 0.0,
+                           max_distance=0.5, final_yaw=home.theta, tolerance=0.03)
+
+
+def standoff_pose(ctx: MarkerContext, package_id: int, grid: OccupancyGrid, distance: float,
+                  clearance: float = 0.4, avoid: float = 0.5) -> Pose2D | None:
+    """A pose ``distance`` from the package's centre, facing it square-on through one of
+    its four faces (so the gripper meets a face, not a corner), with ``clearance`` to walls
+    in ``grid`` and ``avoid`` to every other known package; the face nearest to the robot
+    (if none is free, the nearest free of 24 directions)."""
+    target = ctx.package_xy(package_id)
+    robot = ctx.robot_pose()
+    found = ctx.packages.get(package_id)
+    if target is None or robot is None or found is None:
+        return None
+    r = quaternion_to_matrix(found.pose.pose.orientation)
+    facing = math.atan2(r[1, 2], r[0, 2])
+    info = grid.info
+    blocked = np.asarray(grid.data) != 0
+    dist = distance_transform_edt(~blocked) * info.resolution
+    others = [xy for pid, xy in ((p, ctx.package_xy(p)) for p in ctx.packages)
+              if pid != package_id and xy is not None]
+    faces = [facing + k * 0.5 * math.pi for k in range(4)]
+    return (_nearest_free(target, faces, robot, dist, grid, others, distance, clearance, avoid)
+            or _nearest_free(target, list(np.linspace(-math.pi, math.pi, 24, endpoint=False)),
+                             robot, dist, grid, others, distance, clearance, avoid))
+
+
+def _nearest_free(target: tuple[float, float], directions: list[float], robot: Pose2D,
+                  dist: np.ndarray, grid: OccupancyGrid, others: list[tuple[float, float]],
+                  distance: float, clearance: float, avoid: float) -> Pose2D | None:
+    best: tuple[float, Pose2D] | None = None
+    for a in directions:
+        x = target[0] + distance * math.cos(a)
+        y = target[1] + distance * math.sin(a)
+        r, c = grid.world_to_cell(x, y)
+        if not (0 <= r < dist.shape[0] and 0 <= c < dist.shape[1]) or dist[r, c] < clearance:
+            continue
+        if any(math.hypot(x - ox, y - oy) < avoid for ox, oy in others):
+            continue
+        cost = math.hypot(x - robot.x, y - robot.y)
+        if best is None or cost < best[0]:
+            best = (cost, Pose2D(x, y, math.atan2(target[1] - y, target[0] - x)))
+    return best[1] if best is not None else None
+
+
+def _const(pose: Pose2D) -> Callable[[], Pose2D]:
+    return lambda: pose
+
+
+def package_retrieval_tree(ctx: MarkerContext, target_id: int, viewpoints: list[Pose2D],
+                           home: Pose2D, grid: OccupancyGrid, grip_distance: float,
+                           standoff: float = 0.5) -> py_trees.behaviour.Behaviour:
+    """The TurtleBot course's retrieval (module docstring)."""
+    found = lambda: target_id in ctx.packages  # noqa: E731
+    steps: list[py_trees.behaviour.Behaviour] = [
+        _retry("look from the start", SpinSearch("turn at the start", ctx, found))]
+    for i, vp in enumerate(viewpoints):
+        steps.append(_retry(f"viewpoint {i}", py_trees.composites.Sequence(
+            f"look from viewpoint {i}", memory=True, children=[
+                NavigateTo(f"go to viewpoint {i}", ctx, _const(vp)),
+                SpinSearch(f"turn at viewpoint {i}", ctx, found)])))
+    search = py_trees.composites.Parallel(
+        "search", policy=ParallelPolicy.SuccessOnOne(), children=[
+            WaitFor("target seen", ctx, found),
+            py_trees.composites.Sequence("viewpoints", memory=True, children=steps)])
+    chosen: dict[str, Pose2D] = {}
+
+    def standoff_goal() -> Pose2D | None:
+        pose = standoff_pose(ctx, target_id, grid, standoff)
+        if pose is not None:
+            chosen["pose"] = pose
+        return pose
+
+    def standoff_xy() -> tuple[float, float] | None:
+        pose = chosen.get("pose")
+        return None if pose is None else (pose.x, pose.y)
+
+    return py_trees.composites.Sequence("package-retrieval", memory=True, children=[
+        search,
+        WaitFor("target found", ctx, found, timeout=0.0),
+        NavigateTo("in front of the target", ctx, standoff_goal),
+        # the navigator stops within its goal tolerance: settle on the standoff pose so
+        # the docking runs square to the package's face
+        DriveStraightTo("onto the standoff pose", ctx, standoff_xy, 0.0, max_distance=0.5,
+                        tolerance=0.02),
+        # only now, next to it, does the target leave the costmaps (earlier the planner
+        # would route through it)
+        IgnorePackage("target off the costmap", ctx, target_id),
+        DockToPackage("dock", ctx, target_id, grip_distance, speed=0.04),
+        Grip("grip", ctx),
+        NavigateTo("home", ctx, lambda: home),
+        _settle(ctx, home)])
+
+
+@dataclass
+class TreeOutcome:
+    """How a tree run ended."""
+
+    status: Status
+    duration: float
+    ticks: int
+    failed: str = ""
+    """Name and message of the behaviour that failed, if any."""
+
+
+def run_tree(runtime: Runtime, root: py_trees.behaviour.Behaviour, timeout: float,
+             period: float = 0.1) -> TreeOutcome:
+    """Tick ``root`` every ``period`` s of simulated time until it ends or ``timeout``."""
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.setup()
+    start = runtime.now
+    ticks = 0
+    status = Status.RUNNING
+    while runtime.now - start < timeout:
+        tree.tick()
+        ticks += 1
+        status = root.status
+        if status in (Status.SUCCESS, Status.FAILURE):
+            break
+        runtime.scheduler.run_until(runtime.now + period)
+    failed = ""
+    if status is Status.FAILURE:
+        for node in root.iterate():
+            if node.status is Status.FAILURE and not list(node.children):
+                failed = f"{node.name}: {node.feedback_message or getattr(node, 'reason', '')}"
+                break
+    elif status is Status.RUNNING:
+        root.stop(Status.INVALID)
+        failed = f"timed out after {timeout:.0f} s"
+    return TreeOutcome(status, runtime.now - start, ticks, failed)
