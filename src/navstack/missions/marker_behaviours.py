@@ -27,6 +27,7 @@ import py_trees
 from py_trees.common import Status
 
 from navstack.core.errors import NavstackError, TransformError
+from navstack.core.geometry import normalize_angle
 from navstack.core.msgs import Pose2D, PoseStamped, String
 from navstack.core.msgs.fiducial_msgs import (
     IGNORE_PACKAGE_SERVICE,
@@ -107,7 +108,7 @@ def marker_goal(x: float, y: float, facing: float, distance: float, lateral: flo
     ``lateral`` to its right as seen from the robot), looking at the marker."""
     c, s = math.cos(facing), math.sin(facing)
     return Pose2D(x + distance * c + lateral * s, y + distance * s - lateral * c,
-                  math.atan2(-s, -c))
+                  normalize_angle(facing + math.pi))
 
 
 class _ActionBehaviour(py_trees.behaviour.Behaviour):
