@@ -79,11 +79,14 @@ def _settle(ctx: MarkerContext, home: Pose2D) -> py_trees.behaviour.Behaviour:
 
 
 def standoff_pose(ctx: MarkerContext, package_id: int, grid: OccupancyGrid, distance: float,
-                  clearance: float = 0.4, avoid: float = 0.5) -> Pose2D | None:
+                  clearance: float = 0.35, avoid: float = 0.5,
+                  exclude: tuple[Pose2D, ...] = ()) -> Pose2D | None:
     """A pose ``distance`` from the package's centre, facing it square-on through one of
     its four faces (so the gripper meets a face, not a corner), with ``clearance`` to walls
-    in ``grid`` and ``avoid`` to every other known package; the face nearest to the robot
-    (if none is free, the nearest free of 24 directions)."""
+    in ``grid`` and ``avoid`` to every other known package; the face nearest to the robot,
+    faces behind the package counting the way round (if none is free, the nearest free of
+    24 directions).  Poses within 0.2 m of one in ``exclude`` (tried already) are
+    skipped."""
     target = ctx.package_xy(package_id)
     robot = ctx.robot_pose()
     found = ctx.packages.get(package_id)
@@ -97,14 +100,17 @@ def standoff_pose(ctx: MarkerContext, package_id: int, grid: OccupancyGrid, dist
     others = [xy for pid, xy in ((p, ctx.package_xy(p)) for p in ctx.packages)
               if pid != package_id and xy is not None]
     faces = [facing + k * 0.5 * math.pi for k in range(4)]
-    return (_nearest_free(target, faces, robot, dist, grid, others, distance, clearance, avoid)
-            or _nearest_free(target, list(np.linspace(-math.pi, math.pi, 24, endpoint=False)),
-                             robot, dist, grid, others, distance, clearance, avoid))
+    around = list(np.linspace(-math.pi, math.pi, 24, endpoint=False))
+    return (_nearest_free(target, faces, robot, dist, grid, others, distance, clearance, avoid,
+                          exclude)
+            or _nearest_free(target, around, robot, dist, grid, others, distance, clearance,
+                             avoid, exclude))
 
 
 def _nearest_free(target: tuple[float, float], directions: list[float], robot: Pose2D,
                   dist: np.ndarray, grid: OccupancyGrid, others: list[tuple[float, float]],
-                  distance: float, clearance: float, avoid: float) -> Pose2D | None:
+                  distance: float, clearance: float, avoid: float,
+                  exclude: tuple[Pose2D, ...]) -> Pose2D | None:
     best: tuple[float, Pose2D] | None = None
     for a in directions:
         x = target[0] + distance * math.cos(a)
@@ -114,7 +120,14 @@ def _nearest_free(target: tuple[float, float], directions: list[float], robot: P
             continue
         if any(math.hypot(x - ox, y - oy) < avoid for ox, oy in others):
             continue
+        if any(math.hypot(x - p.x, y - p.y) < 0.2 for p in exclude):
+            continue
+        # the distance to drive, going round the package when it stands between the robot
+        # and the standoff point (the package's ring must not be skirted at close range)
         cost = math.hypot(x - robot.x, y - robot.y)
+        to_robot = math.atan2(robot.y - target[1], robot.x - target[0])
+        apart = abs(math.atan2(math.sin(a - to_robot), math.cos(a - to_robot)))
+        cost += distance * max(0.0, apart - 0.5 * math.pi) * 2.0
         if best is None or cost < best[0]:
             best = (cost, Pose2D(x, y, math.atan2(target[1] - y, target[0] - x)))
     return best[1] if best is not None else None
@@ -140,33 +153,50 @@ def package_retrieval_tree(ctx: MarkerContext, target_id: int, viewpoints: list[
         "search", policy=ParallelPolicy.SuccessOnOne(), children=[
             WaitFor("target seen", ctx, found),
             py_trees.composites.Sequence("viewpoints", memory=True, children=steps)])
-    chosen: dict[str, Pose2D] = {}
+    tried: list[Pose2D] = []
 
     def standoff_goal() -> Pose2D | None:
-        pose = standoff_pose(ctx, target_id, grid, standoff)
+        pose = standoff_pose(ctx, target_id, grid, standoff, exclude=tuple(tried))
         if pose is not None:
-            chosen["pose"] = pose
+            tried.append(pose)
         return pose
 
     def standoff_xy() -> tuple[float, float] | None:
-        pose = chosen.get("pose")
-        return None if pose is None else (pose.x, pose.y)
+        return (tried[-1].x, tried[-1].y) if tried else None
 
-    return py_trees.composites.Sequence("package-retrieval", memory=True, children=[
-        search,
-        WaitFor("target found", ctx, found, timeout=0.0),
+    # up to three approach directions: where the navigator cannot reach one (a tight spot
+    # for the wide rear body), another side of the package often is reachable
+    attempts = [py_trees.composites.Sequence(f"approach {i}", memory=True, children=[
         NavigateTo("in front of the target", ctx, standoff_goal),
         # the navigator stops within its goal tolerance: settle on the standoff pose so
         # the docking runs square to the package's face
         DriveStraightTo("onto the standoff pose", ctx, standoff_xy, 0.0, max_distance=0.5,
-                        tolerance=0.02),
+                        tolerance=0.02)]) for i in range(3)]
+    return py_trees.composites.Sequence("package-retrieval", memory=True, children=[
+        search,
+        WaitFor("target found", ctx, found, timeout=0.0),
+        py_trees.composites.Selector("reach the target", memory=True, children=attempts),
         # only now, next to it, does the target leave the costmaps (earlier the planner
         # would route through it)
         IgnorePackage("target off the costmap", ctx, target_id),
         DockToPackage("dock", ctx, target_id, grip_distance, speed=0.04),
         Grip("grip", ctx),
-        NavigateTo("home", ctx, lambda: home),
+        _home_with_retry(ctx, home, viewpoints),
         _settle(ctx, home)])
+
+
+def _home_with_retry(ctx: MarkerContext, home: Pose2D, viewpoints: list[Pose2D]
+                     ) -> py_trees.behaviour.Behaviour:
+    """Home; if the navigator gives up, once more by way of the viewpoint nearest home
+    (open space: the stuck spot is left behind and the plan starts afresh)."""
+    attempts: list[py_trees.behaviour.Behaviour] = [NavigateTo("home", ctx, lambda: home)]
+    if viewpoints:
+        near = min(viewpoints, key=lambda v: math.hypot(v.x - home.x, v.y - home.y))
+        attempts.append(py_trees.composites.Sequence("home via open space", memory=True,
+                                                     children=[
+            NavigateTo("to open space", ctx, _const(near)),
+            NavigateTo("home again", ctx, lambda: home)]))
+    return py_trees.composites.Selector("return home", memory=True, children=attempts)
 
 
 @dataclass
