@@ -67,7 +67,7 @@ def marker_frame_tree(ctx: MarkerContext, marker_id: int, view: Pose2D, home: Po
         ApproachMarker("approach the marker", ctx, marker_id, approach_distance),
         _retry("refine the frame", WaitFor("refine", ctx, lambda: False,
                                            timeout=min_inliers_wait)),
-        NavigateTo("return to the start", ctx, lambda: home),
+        _home_with_retry(ctx, home, [view]),
         _settle(ctx, home)])
 
 
@@ -187,15 +187,17 @@ def package_retrieval_tree(ctx: MarkerContext, target_id: int, viewpoints: list[
 
 def _home_with_retry(ctx: MarkerContext, home: Pose2D, viewpoints: list[Pose2D]
                      ) -> py_trees.behaviour.Behaviour:
-    """Home; if the navigator gives up, once more by way of the viewpoint nearest home
-    (open space: the stuck spot is left behind and the plan starts afresh)."""
-    attempts: list[py_trees.behaviour.Behaviour] = [NavigateTo("home", ctx, lambda: home)]
+    """Home; if the navigator gives up (a tight spot, a person in a door), once more by
+    way of the viewpoint nearest home: the stuck spot is left behind and the plan starts
+    afresh."""
+    attempts: list[py_trees.behaviour.Behaviour] = [
+        NavigateTo("return to the start", ctx, lambda: home)]
     if viewpoints:
         near = min(viewpoints, key=lambda v: math.hypot(v.x - home.x, v.y - home.y))
         attempts.append(py_trees.composites.Sequence("home via open space", memory=True,
                                                      children=[
             NavigateTo("to open space", ctx, _const(near)),
-            NavigateTo("home again", ctx, lambda: home)]))
+            NavigateTo("return to the start again", ctx, lambda: home)]))
     return py_trees.composites.Selector("return home", memory=True, children=attempts)
 
 
@@ -227,10 +229,13 @@ def run_tree(runtime: Runtime, root: py_trees.behaviour.Behaviour, timeout: floa
         runtime.scheduler.run_until(runtime.now + period)
     failed = ""
     if status is Status.FAILURE:
-        for node in root.iterate():
-            if node.status is Status.FAILURE and not list(node.children):
-                failed = f"{node.name}: {node.feedback_message or getattr(node, 'reason', '')}"
+        node = root  # follow the failure down: the failed child of each failed composite
+        while list(node.children):
+            failing = [c for c in node.children if c.status is Status.FAILURE]
+            if not failing:
                 break
+            node = failing[-1]
+        failed = f"{node.name}: {node.feedback_message or getattr(node, 'reason', '')}"
     elif status is Status.RUNNING:
         root.stop(Status.INVALID)
         failed = f"timed out after {timeout:.0f} s"
