@@ -87,12 +87,11 @@ def test_package_ring_is_in_the_costmap_soon_after_detection() -> None:
     hit = None
     for _ in range(60):
         stack.run_for(0.02)
-        centres = per.marker_map.package_centres()
-        if 3 not in centres:
+        ring = per.marker_map.cloud_rings.get(3)  # the ring points last published
+        if ring is None:
             continue
-        cx, cy = centres[3]
-        cells = [cm.world_to_map(cx + 0.15 * math.cos(a), cy + 0.15 * math.sin(a))
-                 for a in np.linspace(0, 2 * math.pi, 25, endpoint=False)]
+        assert ring.shape == (25, 3)
+        cells = [cm.world_to_map(float(x), float(y)) for x, y, _ in ring]
         if all(c is not None and cm.data[c[1], c[0]] >= LETHAL_OBSTACLE for c in cells):
             hit = stack.now
             break

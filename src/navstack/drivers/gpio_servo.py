@@ -40,6 +40,9 @@ from navstack.core.params import Params
 
 __all__ = ["GpioServo", "ServoError", "ServoParams", "ServoUnavailable"]
 
+SPIN_MARGIN = 0.003
+"""Seconds before a step's time at which the ramp stops sleeping and polls the clock."""
+
 
 class ServoError(NavstackError, ValueError):
     """A servo request or setting that cannot be carried out (pin, duty)."""
@@ -183,15 +186,20 @@ class GpioServo:
         period = self.params.step_period if len(steps) > 1 else 0.0
         start = self._clock()
         for k, value in enumerate(steps):
-            wait = start + k * period - self._clock()
-            if wait > 0.0:
-                self._sleep(wait)
+            self._wait_until(start + k * period)
             self._write(value)
         if period > 0.0:
-            wait = start + len(steps) * period - self._clock()
-            if wait > 0.0:
-                self._sleep(wait)
+            self._wait_until(start + len(steps) * period)
         return "OK"
+
+    def _wait_until(self, deadline: float) -> None:
+        """Sleep to ``SPIN_MARGIN`` before ``deadline``, then poll the clock: a plain sleep
+        overshoots by a scheduler quantum on a loaded machine (seen: 10 ms)."""
+        wait = deadline - self._clock()
+        if wait > SPIN_MARGIN:
+            self._sleep(wait - SPIN_MARGIN)
+        while self._clock() < deadline:
+            self._sleep(0.0)
 
     def open_gripper(self) -> str:
         return self.command(self.params.pin, self.params.open_duty)

@@ -24,10 +24,10 @@ from navstack.core.msgs import (
     MapMetaData,
     OccupancyGrid,
     Point,
-    PointCloud2,
     Pose,
     Pose2D,
 )
+from navstack.core.msgs.sensor_msgs import PointCloud2
 from navstack.core.polygon import Footprint
 from navstack.core.rotations import transform_to_matrix
 from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D

@@ -39,7 +39,6 @@ from navstack.core.msgs import (
     Marker,
     MarkerArray,
     Point,
-    PointCloud2,
     Pose,
     PoseWithCovariance,
     TFMessage,
@@ -54,6 +53,7 @@ from navstack.core.msgs.fiducial_msgs import (
     ArucoMarker,
     ArucoMarkerArray,
 )
+from navstack.core.msgs.sensor_msgs import PointCloud2
 from navstack.core.params import Params
 from navstack.core.rotations import (
     matrix_to_pose,

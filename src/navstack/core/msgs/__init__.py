@@ -27,7 +27,6 @@ from navstack.core.msgs.nav2_msgs import CostmapFilterInfo, SpeedLimit
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
-    JointState,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -39,8 +38,6 @@ from navstack.core.msgs.sensor_msgs import (
     Odometry,
     Path,
     PointCloud,
-    PointCloud2,
-    PointField,
     TFMessage,
 )
 from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
@@ -53,7 +50,6 @@ __all__ = [
     "Float64",
     "Header",
     "Imu",
-    "JointState",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -66,8 +62,6 @@ __all__ = [
     "Path",
     "Point",
     "PointCloud",
-    "PointCloud2",
-    "PointField",
     "Polygon",
     "Pose",
     "Pose2D",
