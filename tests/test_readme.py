@@ -131,7 +131,7 @@ FORMS: dict[str, Run | Covered] = {
         add=("--waypoints", "{tmp}/one_goal.yaml"),
         why="the four-goal mission takes ~40 s; one goal 1.5 m from the spawn runs the "
             "same command path (plan, control, report) in ~3 s"),
-    ".venv/bin/navstack slam --carmen src/navstack/data/carmen/intel-corrected.log.gz "
+    ".venv/bin/navstack slam src/navstack/data/carmen/intel-corrected.log.gz "
     "--out runs/intel": Run(
         expect="50 scans processed", set={"--out": "{tmp}/intel"}, add=("--max-scans", "50"),
         why="the 910 scans take ~35 s; 50 scans read the same shipped log in ~2 s"),

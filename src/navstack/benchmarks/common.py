@@ -13,6 +13,13 @@ from typing import Any
 
 from navstack.core.errors import NavstackError
 
+Progress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: suites that take ``progress=`` report their stages."""
+
+
+def no_progress(stage: str, done: int, total: int) -> None:
+    """The default :data:`Progress`: says nothing."""
+
 
 @dataclass
 class BenchResult:

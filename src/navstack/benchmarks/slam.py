@@ -28,7 +28,13 @@ import math
 import time
 from pathlib import Path
 
-from navstack.benchmarks.common import BenchDataMissing, BenchResult, data_file
+from navstack.benchmarks.common import (
+    BenchDataMissing,
+    BenchResult,
+    Progress,
+    data_file,
+    no_progress,
+)
 from navstack.mapping.offline import run_carmen
 
 LOGS = ("intel", "aces", "csail")
@@ -54,12 +60,21 @@ def log_path(data_dir: Path | None, name: str) -> Path:
     return data_file(f"carmen/{name}-corrected.log.gz", data_dir)
 
 
-def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
+def _prefixed(progress: Progress, prefix: str) -> Progress:
+    def report(stage: str, done: int, total: int) -> None:
+        progress(f"{prefix} {stage}", done, total)
+
+    return report
+
+
+def run(quick: bool, data_dir: Path | None = None,
+        progress: Progress = no_progress) -> BenchResult:
     """Run SLAM on the three logs; metrics as in the module docstring."""
     paths = {name: log_path(data_dir, name) for name in LOGS}  # fail before any work
     result = BenchResult("slam")
     for name, path in paths.items():
-        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None)
+        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None,
+                         progress=_prefixed(progress, name))
         if res.rpe is None:
             raise BenchDataMissing(f"{path}: no reference poses (not an anchored 'corrected' "
                                    "log), cannot score it")
@@ -86,7 +101,9 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         if res.speedup is None:
             result.notes.append(f"{name}: timestamps too coarse to give the log duration "
                                 f"({name}_speedup left out)")
+    progress("simulated mapping", 0, 1)
     _run_sim(result, quick)
+    progress("simulated mapping", 1, 1)
     scope = (f"quick: first {QUICK_SCANS} scans of each log, budgets not checked" if quick
              else "full logs, every scan a node (log profile), batch optimisation at the end")
     result.notes += [

@@ -10,9 +10,12 @@ from navstack.interfaces.cli import (
     bag_cmds,
     demo_cmds,
     health_cmds,
+    link_cmds,
     sim_cmds,
     slam_cmds,
+    telegram_cmds,
 )
 from navstack.interfaces.cli.common import app
 
-__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "sim_cmds", "slam_cmds"]
+__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds",
+           "sim_cmds", "slam_cmds", "telegram_cmds"]
