@@ -82,5 +82,5 @@ def test_dead_end_corridor_is_closed_and_turnable() -> None:
     assert 0.35 < clearance[r, c] < 0.45                  # 0.8 m wide at the far end
     assert clearance[r, c] > circumscribed                # the robot can turn round
     assert w.occupied[r, w.world_to_cell(7.45, 1.5)[1]]  # and it is closed
-    lab, n = ndimage.label(~w.occupied)
+    _, n = ndimage.label(~w.occupied)
     assert n == 1  # one free region: the corridor is reached only from the room
