@@ -117,8 +117,10 @@ def _explore(setup: MissionSetup) -> Mission:
 
 def _coverage(setup: MissionSetup) -> Mission:
     o = setup.options
-    params = CoverageParams.from_mapping({**setup.section("coverage"), **o.coverage},
-                                         file=setup.nav2_file, key_path="coverage")
+    # 0.1 m beyond the padded footprint: lidar noise puts obstacle cells a few cm nearer
+    values = {"turning_radius": setup.circumscribed_radius + 0.1, **setup.section("coverage"),
+              **o.coverage}
+    params = CoverageParams.from_mapping(values, file=setup.nav2_file, key_path="coverage")
     stop = (TargetInView(setup.ctx, o.targets, setup.camera()) if o.targets else None)
     return coverage_mission(setup.ctx, params, stop)
 

@@ -2,14 +2,17 @@
 
 ``PlanCoverage`` splits the free space of ``/map`` into ``cell_size`` cells kept by the
 free-box filter (:func:`~navstack.exploration.coverage.coverage_cells`), moves each
-centre onto the nearest cell the robot can stand on in the global costmap (within
-``snap_radius``; cells with none are reported unreachable), and orders the visits by
+centre to the nearest point where the robot can turn round (``turning_radius`` from
+every mapped obstacle, and traversable in the global costmap) within ``snap_radius`` --
+the course's +-3-cell box is narrower than a TurtleBot, so a centre 0.16 m from a wall
+passes it but cannot take the robot at an arbitrary heading -- (cells with none are
+reported unreachable), and orders the visits by
 path distance from the robot: nearest neighbour + 2-opt on the closed tour home.
 ``VisitCells`` drives to each in turn facing one common ``heading`` (the camera looks the
 same way everywhere; default: the heading at the start), retries a failed cell once at
 the end, and stops early when ``stop_when`` fires (the perception issue's "target seen").
-A cell counts as visited when the robot got within ``visit_tolerance`` of it, even if the
-final turn to the heading failed next to a wall.  Then the robot returns home, and the
+A cell counts as visited when the robot is inside its square, even if the final turn to
+the heading failed.  Then the robot returns home, and the
 mission fails if any reachable cell was missed, naming each with the reason.
 """
 
@@ -24,6 +27,7 @@ import numpy as np
 from py_trees.common import Status
 from py_trees.composites import Sequence
 from pydantic import Field
+from scipy import ndimage
 
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.core.params import Params
@@ -64,8 +68,12 @@ class CoverageParams(Params):
     free_threshold: int = Field(25, ge=0, le=100)
     """A ``/map`` cell is free when its value is 0..free_threshold (unknown is not)."""
     lethal_threshold: int = Field(99, ge=1, le=100)
-    snap_radius: float = Field(0.3, ge=0.0)
-    visit_tolerance: float = Field(0.3, gt=0.0)
+    snap_margin: float = Field(0.15, ge=0.0)
+    """A cell's goal may move from its centre as far as stays this far [m] inside the
+    cell's square (the goal tolerance): the robot arriving there is in the cell."""
+    turning_radius: float = Field(0.3, ge=0.0)
+    """Clearance [m] from mapped obstacles a goal needs so the robot can turn there (the
+    footprint's circumscribed radius; the mission catalog passes the robot's)."""
     settle_time: float = Field(5.0, gt=0.0)
     return_home: bool = True
 
@@ -75,6 +83,9 @@ class CoveragePlan:
     """Cells to visit (in order), and those no path reaches."""
 
     cells: list[tuple[float, float]]
+    """Goals, in visiting order (a centre, or the nearest point to turn round)."""
+    centres: list[tuple[float, float]]
+    """The cells' centres, in the same order."""
     unreachable: list[tuple[float, float]]
     tour_length: float
     all_cells: int
@@ -91,22 +102,41 @@ def plan_coverage(grid: OccupancyGrid, costmap: OccupancyGrid | None, robot: Pos
     view = (GridView.from_occupancy(costmap, lethal_threshold=p.lethal_threshold)
             if costmap is not None else GridView.from_occupancy(grid, inflate_radius=0.2))
     res = view.resolution
-    snapped, unreachable = [], []
+    # where the robot can turn: traversable, and turning_radius from every mapped obstacle
+    occupied = (data >= 65) | (data < 0)
+    clearance = ndimage.distance_transform_edt(~occupied, sampling=info.resolution)
+    rows, cols = np.nonzero(view.traversable)
+    xy = view.centres(rows, cols)
+    gr = np.floor((xy[:, 1] - o.y) / info.resolution).astype(np.int64)
+    gc = np.floor((xy[:, 0] - o.x) / info.resolution).astype(np.int64)
+    inside = (gr >= 0) & (gr < info.height) & (gc >= 0) & (gc < info.width)
+    roomy = np.zeros(len(xy), dtype=bool)
+    roomy[inside] = clearance[gr[inside], gc[inside]] >= p.turning_radius
+    turnable = np.zeros(view.shape, dtype=bool)
+    turnable[rows[roomy], cols[roomy]] = True
+    snapped: list[tuple[float, float]] = []
+    kept: list[tuple[float, float]] = []
+    unreachable: list[tuple[float, float]] = []
+    k = max(0, math.floor((p.cell_size / 2 - p.snap_margin) / res))
     for x, y in centres:
         r, c = view.cell_of(x, y)
-        cell = nearest_cell(view.traversable, r, c, p.snap_radius / res)
+        window = np.zeros_like(turnable)
+        window[max(0, r - k):r + k + 1, max(0, c - k):c + k + 1] = True
+        cell = nearest_cell(turnable & window, r, c)
         if cell is None:
             unreachable.append((float(x), float(y)))
             continue
+        kept.append((float(x), float(y)))
         snapped.append(view.centre_of(*cell) if cell != (r, c) else (float(x), float(y)))
     pts = np.array([(robot.x, robot.y), *snapped]).reshape(-1, 2)
     dist = path_distances(view.traversable, res, view.origin_x, view.origin_y, pts,
                           snap_radius=1.0)
     order = order_visits(dist, 0)
     reached = set(order)
-    unreachable += [snapped[i - 1] for i in range(1, len(pts)) if i not in reached]
+    unreachable += [kept[i - 1] for i in range(1, len(pts)) if i not in reached]
     length = tour_length(dist, [0, *order])
-    return CoveragePlan([snapped[i - 1] for i in order], unreachable, length, len(centres))
+    return CoveragePlan([snapped[i - 1] for i in order], [kept[i - 1] for i in order],
+                        unreachable, length, len(centres))
 
 
 class PlanCoverage(MissionBehaviour):
@@ -138,6 +168,7 @@ class PlanCoverage(MissionBehaviour):
 class CellRecord:
     index: int
     xy: tuple[float, float]
+    centre: tuple[float, float]
     status: str = "PENDING"
     reason: str = ""
     time: float = 0.0
@@ -178,8 +209,9 @@ class VisitCells(MissionBehaviour):
 
     def initialise(self) -> None:
         plan = self.ctx.results.get("coverage_plan")
-        cells = plan.cells if isinstance(plan, CoveragePlan) else []
-        self.records = [CellRecord(i, xy) for i, xy in enumerate(cells)]
+        pairs = list(zip(plan.cells, plan.centres, strict=True)) \
+            if isinstance(plan, CoveragePlan) else []
+        self.records = [CellRecord(i, xy, c) for i, (xy, c) in enumerate(pairs)]
         self._queue = _Queue(list(range(len(self.records))), [])
         self.current = None
         self.stopped_early = ""
@@ -213,10 +245,13 @@ class VisitCells(MissionBehaviour):
         pose = self.ctx.robot_pose()
         dist = (math.hypot(pose.x - rec.xy[0], pose.y - rec.xy[1]) if pose is not None
                 else math.inf)
+        inside = pose is not None and max(abs(pose.x - rec.centre[0]),
+                                          abs(pose.y - rec.centre[1])) \
+            <= self.params.cell_size / 2
         if dist < self._best[0] - 0.02:
             self._best = (dist, self.ctx.now)
         status = self.nav.status
-        settled = (status is Status.RUNNING and dist <= self.params.visit_tolerance
+        settled = (status is Status.RUNNING and inside
                    and self.ctx.now - self._best[1] >= self.params.settle_time)
         if status is Status.RUNNING and not settled:
             done = sum(r.status == "VISITED" for r in self.records)
@@ -226,7 +261,7 @@ class VisitCells(MissionBehaviour):
             return Status.RUNNING
         if settled:
             self.nav.stop(Status.INVALID)
-        if status is Status.SUCCESS or dist <= self.params.visit_tolerance:
+        if (inside and status is not Status.RUNNING) or settled:
             rec.status, rec.time = "VISITED", self.ctx.now
             if self.ctx.failures and status is Status.FAILURE:
                 self.ctx.failures.pop()  # reached it; only the final turn failed
@@ -287,7 +322,8 @@ def coverage_mission(ctx: MissionContext, params: CoverageParams | None = None,
         return {"coverage": {
             "cell_size": p.cell_size, "free_box_cells": p.free_box_cells,
             "heading": visit._heading(),
-            "cells": [{"xy": list(r.xy), "status": r.status, "reason": r.reason,
+            "cells": [{"xy": list(r.xy), "centre": list(r.centre), "status": r.status,
+                       "reason": r.reason,
                        "time": round(r.time, 2), "attempts": r.attempts}
                       for r in visit.records],
             "unreachable": [list(c) for c in plan.unreachable]
