@@ -24,6 +24,7 @@ SUITE_MODULES: dict[str, str] = {
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
+    "exploration": "navstack.benchmarks.exploration",
 }
 
 
