@@ -181,5 +181,6 @@ class MissionRunner(Node):
         sched.run_for(timeout, until=lambda: self.done)
         if not self.done:
             self.cancel(f"timed out after {timeout:.0f} s")
+        sched.run_for(0.0)  # deliver what the last tick published (the final state)
         assert self.result is not None
         return self.result
