@@ -20,17 +20,19 @@ from typing import Any
 
 import numpy as np
 
+from navstack.core.errors import NavstackError
 from navstack.core.map_files import load_map
 from navstack.core.msgs import OccupancyGrid, Pose2D, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.stack import NavStack
-from navstack.interfaces.stack_description import SlamLocalization
+from navstack.interfaces.stack_description import AmclLocalization, SlamLocalization
 
 __all__ = ["check_reload"]
 
 
 def _drive(stack: NavStack, goal: Pose2D, timeout: float) -> tuple[str, float]:
-    """Navigate to ``goal``; returns (status, estimate error [m] at the end)."""
+    """Navigate to ``goal``; returns (status, estimate error [m] at the end); a failed
+    status carries the navigator's reason after a colon."""
     nav = Navigator(stack)
     nav.goToPose(PoseStamped.from_pose2d(goal, "map", stack.now))
     t0 = stack.now
@@ -38,23 +40,39 @@ def _drive(stack: NavStack, goal: Pose2D, timeout: float) -> tuple[str, float]:
         if stack.now - t0 > timeout:
             nav.cancelTask()
             break
-    est = nav.robot_pose()
     true = stack.sim.sim.pose
+    try:
+        est = nav.robot_pose()
+    except NavstackError:
+        return "NO_POSE", math.inf
     status = {TaskResult.SUCCEEDED: "SUCCEEDED", TaskResult.FAILED: "FAILED",
               TaskResult.CANCELED: "CANCELED"}.get(nav.getResult(), "UNKNOWN")
+    result = nav.getTaskResult()
+    if status != "SUCCEEDED" and result is not None and result.error_msg:
+        status += f": {result.error_msg}"
     return status, math.hypot(est.x - true.x, est.y - true.y)
 
 
 def _agreement(saved: OccupancyGrid, slam: OccupancyGrid) -> float:
-    """Fraction of cells whose class (unknown / free / occupied) is the same."""
-    if (saved.info.width, saved.info.height) != (slam.info.width, slam.info.height):
-        return 0.0
+    """Fraction of the saved map's cells whose class (unknown / free / occupied) is the
+    same in the SLAM map at the same place (the saved map is cropped, SLAM's padded)."""
 
     def classes(g: OccupancyGrid) -> np.ndarray:
         d = np.asarray(g.data).reshape(g.info.height, g.info.width)
         return np.where(d < 0, 0, np.where(d >= 65, 2, 1))
 
-    return float((classes(saved) == classes(slam)).mean())
+    a, b = saved.info, slam.info
+    rows, cols = np.mgrid[0:a.height, 0:a.width]
+    x = a.origin.position.x + (cols + 0.5) * a.resolution
+    y = a.origin.position.y + (rows + 0.5) * a.resolution
+    bc = np.floor((x - b.origin.position.x) / b.resolution).astype(np.int64)
+    br = np.floor((y - b.origin.position.y) / b.resolution).astype(np.int64)
+    inside = (br >= 0) & (br < b.height) & (bc >= 0) & (bc < b.width)
+    if not inside.any():
+        return 0.0
+    other = np.zeros(inside.shape, dtype=np.int64)
+    other[inside] = classes(slam)[br[inside], bc[inside]]
+    return float(((classes(saved) == other) & inside).sum() / inside.size)
 
 
 def check_reload(world: str, robot: str, nav2: str | Path, files: dict[str, str],
@@ -65,7 +83,8 @@ def check_reload(world: str, robot: str, nav2: str | Path, files: dict[str, str]
     out: dict[str, Any] = {"goal": [goal.x, goal.y, goal.theta]}
     saved = load_map(files["map_yaml"])
     out["map_server_cells_agree"] = round(_agreement(saved, slam_map), 4) if slam_map else 0.0
-    amcl = NavStack(world, robot, nav2, seed=seed + 100, localization="amcl",
+    amcl = NavStack(world, robot, nav2, seed=seed + 100,
+                    localization=AmclLocalization({"random_seed": seed + 100}),
                     map_grid=saved).start()
     status, err = _drive(amcl, goal, timeout)
     out.update(map_server_goal=status, map_server_amcl_error_m=round(err, 4),
@@ -78,6 +97,7 @@ def check_reload(world: str, robot: str, nav2: str | Path, files: dict[str, str]
         spawn = loc.description.spawn
         loc.slam.load(files["posegraph"], match_type="localize",
                       initial_pose=(spawn.x, spawn.y, spawn.theta))
+        loc.run_for(0.5)  # map -> odom reaches TF, the first scans are matched
         status, err = _drive(loc, goal, timeout)
         out.update(slam_localization_goal=status, slam_localization_error_m=round(err, 4),
                    slam_localization_ok=status == "SUCCEEDED" and err <= max_error)

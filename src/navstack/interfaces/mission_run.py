@@ -50,7 +50,7 @@ from navstack.interfaces.mission_report import (
     write_report,
 )
 from navstack.interfaces.stack import NavStack, default_nav2_params_path
-from navstack.interfaces.stack_description import SlamLocalization
+from navstack.interfaces.stack_description import AmclLocalization, SlamLocalization
 from navstack.mapping.map_metrics import occupancy_iou
 from navstack.missions.context import MissionContext
 from navstack.missions.explore import FRONTIERS_TOPIC
@@ -95,6 +95,8 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     if loc_name == "slam":
         section = nav2.get("slam_toolbox", {}).get("ros__parameters", {})
         localization = SlamLocalization(dict(section))
+    elif loc_name == "amcl":  # seeded: same seed, same run
+        localization = AmclLocalization({"random_seed": seed})
     wall0 = time.perf_counter()
     stack = NavStack(world or spec.world, robot, nav2_path, seed=seed,
                      localization=localization).start()

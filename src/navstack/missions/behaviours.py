@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, Generic, TypeVar
 
 from py_trees.behaviour import Behaviour
@@ -358,7 +359,9 @@ class SaveMap(MissionBehaviour):
             saved: dict[str, Any] = self.ctx.call(f"{prefix}/save_map", {"name": self.path})
             if not saved.get("result"):
                 return self.failed(f"save_map failed: {saved.get('reason', 'no reason')}")
-            files = {"map_yaml": str(saved["path"])}
+            # the service answers with the image it wrote; the YAML sits beside it
+            image = Path(str(saved["path"]))
+            files = {"map_yaml": str(image.with_suffix(".yaml")), "map_image": str(image)}
             if self.serialize:
                 graph: dict[str, Any] = self.ctx.call(f"{prefix}/serialize_map",
                                                       {"filename": self.path})
