@@ -95,7 +95,8 @@ def run_case(world: str, strategy: str, seed: int) -> dict[str, Any]:
             "observed_fraction", "map_iou", "path_length_m", "collisions", "home_distance_m",
             "slam_map_latency_p95_s", "slam_map_latency_sim_p95_s", "slam_map_build_s",
             "goal_to_first_motion_p95_s", "goal_to_first_motion_wall_p95_s",
-            "max_spin_in_place_s", "wall_time_s", "real_time_factor")
+            "max_spin_in_place_s", "pose_error_rms_m", "pose_error_max_m", "wall_time_s",
+            "real_time_factor")
     case = {"world": world, "strategy": strategy, "seed": seed,
             **{k: report.get(k, math.nan) for k in keys}}
     explore = report.get("explore", {})

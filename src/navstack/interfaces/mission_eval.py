@@ -11,7 +11,11 @@ The mission itself never sees the simulated world; these watchers do, from outsi
   the largest map of the run (a robot computes the map in real time);
 * :class:`CommandResponse` -- goal-to-first-motion: for each NavigateToPose goal that
   arrives while the robot stands still, the time until the first non-zero command reaches
-  the base (``/cmd_vel``), in simulated and wall-clock time;
+  the base (``/cmd_vel``), in simulated and wall-clock time; a goal that ends before any
+  motion (already reached, preempted, rejected) is not a response and is left out;
+* :class:`PoseError` -- the localization estimate (TF ``map -> base_link``) against the
+  true pose every second: RMS and max position error (with SLAM: its trajectory error,
+  unaligned -- the map starts at the spawn pose, so it is the world frame);
 * :func:`spin_in_place_max` -- the longest stretch of turning in place in a trajectory.
 """
 
@@ -25,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.core.errors import TransformError
 from navstack.core.msgs import OccupancyGrid, Twist
 from navstack.exploration.ideal import reachable_free_space
 from navstack.interfaces.stack import NavStack
@@ -159,10 +164,11 @@ class CommandResponse:
     moving_threshold: float = 0.01
     delays: list[float] = field(default_factory=list)
     wall_delays: list[float] = field(default_factory=list)
+    starts: list[float] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._last_motion = -math.inf
-        self._pending: tuple[float, float] | None = None
+        self._pending: tuple[float, float, GoalHandle[Any]] | None = None
         bus = self.stack.runtime.bus
         self._sub = bus.subscribe("/cmd_vel", Twist, self._on_cmd, QoS(depth=10))
         server = bus.action_servers.get("/navigate_to_pose")
@@ -179,28 +185,67 @@ class CommandResponse:
         verdict: bool | str = self._orig(handle)
         standing = self.stack.now - self._last_motion > 0.5
         if verdict is True and standing and self._pending is None:
-            self._pending = (self.stack.now, time.perf_counter())
+            self._pending = (self.stack.now, time.perf_counter(), handle)
+            handle.add_done_callback(lambda _: self._ended(handle))
         return verdict
+
+    def _ended(self, handle: GoalHandle[Any]) -> None:
+        if self._pending is not None and self._pending[2] is handle:
+            self._pending = None  # ended without moving the robot: not a response
 
     def _on_cmd(self, cmd: Twist) -> None:
         if not self._moving(cmd):
             return
         self._last_motion = self.stack.now
         if self._pending is not None:
-            t0, w0 = self._pending
+            t0, w0, _ = self._pending
             self.delays.append(self.stack.now - t0)
             self.wall_delays.append(time.perf_counter() - w0)
+            self.starts.append(t0)
             self._pending = None
 
-    def summary(self) -> dict[str, float]:
+    def summary(self) -> dict[str, Any]:
+        slowest = sorted(zip(self.delays, self.starts, strict=True), reverse=True)[:5]
         return {"goal_to_first_motion_p95_s": percentile(self.delays, 95),
                 "goal_to_first_motion_wall_p95_s": percentile(self.wall_delays, 95),
-                "goal_to_first_motion_samples": len(self.delays)}
+                "goal_to_first_motion_samples": len(self.delays),
+                "goal_to_first_motion_slowest": [[round(t, 2), round(d, 3)]
+                                                 for d, t in slowest]}
 
     def close(self) -> None:
         self._sub.unsubscribe()
         if self._server is not None and self._orig is not None:
             self._server.on_goal = self._orig
+
+
+@dataclass
+class PoseError:
+    """Estimated vs true robot position, sampled every ``period`` (module docstring)."""
+
+    stack: NavStack
+    period: float = 1.0
+    samples: list[tuple[float, float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.stack.runtime.scheduler.create_timer(self.period, self._sample)
+
+    def _sample(self) -> None:
+        try:
+            est = self.stack.runtime.tf.lookup_pose2d("map", "base_link")
+        except TransformError:
+            return
+        self.stack.sim.advance()
+        true = self.stack.sim.sim.pose
+        self.samples.append((self.stack.now, math.hypot(est.x - true.x, est.y - true.y)))
+
+    def summary(self) -> dict[str, Any]:
+        if not self.samples:
+            return {}
+        err = np.array([e for _, e in self.samples])
+        k = int(np.argmax(err))
+        return {"pose_error_rms_m": float(np.sqrt(np.mean(err ** 2))),
+                "pose_error_max_m": float(err[k]), "pose_error_max_at_s": self.samples[k][0],
+                "pose_error_trace": [[round(t, 1), round(e, 3)] for t, e in self.samples[::5]]}
 
 
 def spin_in_place_max(traj: FloatArray, radius: float = 0.15, min_turn: float = 0.5) -> float:

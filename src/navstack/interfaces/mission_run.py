@@ -41,6 +41,7 @@ from navstack.interfaces.mission_catalog import (
 from navstack.interfaces.mission_eval import (
     CommandResponse,
     CoverageTracker,
+    PoseError,
     SlamLatency,
     spin_in_place_max,
 )
@@ -72,6 +73,7 @@ class MissionRun:
     coverage: CoverageTracker | None
     latency: SlamLatency | None
     response: CommandResponse
+    pose_error: PoseError
     plans: list[np.ndarray]
     wall_start: float
 
@@ -117,7 +119,7 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     latency = SlamLatency(stack) if slam else None
     response = CommandResponse(stack)
     return MissionRun(spec, stack, runner, setup, recorder, coverage, latency, response,
-                      plans, wall0)
+                      PoseError(stack), plans, wall0)
 
 
 def run_mission(name: str, out: FsPath, world: str | None = None,
@@ -192,6 +194,8 @@ def evaluate(run: MissionRun) -> dict[str, Any]:
     }
     report.update(result.data)
     report.update(run.response.summary())
+    report.update({k: (round(v, 4) if isinstance(v, float) else v)
+                   for k, v in run.pose_error.summary().items()})
     if run.coverage is not None:
         cov = run.coverage
         t0 = runner.started

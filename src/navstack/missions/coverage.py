@@ -44,9 +44,9 @@ from navstack.missions.behaviours import (
     NavigateToPose,
     RememberHome,
     ReturnHome,
-    WaitFor,
 )
 from navstack.missions.context import MissionContext
+from navstack.missions.explore import wait_for_map
 from navstack.missions.mission import Mission
 from navstack.runtime.bus import LATCHED
 
@@ -309,9 +309,7 @@ def coverage_mission(ctx: MissionContext, params: CoverageParams | None = None,
     """The course's coverage search (module docstring)."""
     p = params or CoverageParams()
     visit = VisitCells(ctx, p, stop_when)
-    steps = [WaitFor(ctx, lambda: ctx.latest(p.map_topic, OccupancyGrid, LATCHED) is not None,
-                     30.0, f"the map on {p.map_topic}", name="WaitForMap"),
-             RememberHome(ctx), PlanCoverage(ctx, p), visit]
+    steps = [wait_for_map(ctx, p.map_topic), RememberHome(ctx), PlanCoverage(ctx, p), visit]
     if p.return_home:
         steps.append(ReturnHome(ctx, tolerance=home_tolerance))
     steps.append(CheckCells(ctx, visit))

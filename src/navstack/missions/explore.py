@@ -309,16 +309,31 @@ class Escape(MissionBehaviour):
             self.handle.cancel()
 
 
+def wait_for_map(ctx: MissionContext, topic: str = "/map", settle: float = 0.5,
+                 timeout: float = 30.0) -> WaitFor:
+    """Wait for the first map and then ``settle`` seconds: SLAM's ``map -> odom`` is right
+    only once its first scan is placed (before that slam nodes publish a guess, future-dated
+    by ``transform_timeout``), so the home pose is read after it."""
+    first: list[float] = []
+
+    def ready() -> bool:
+        grid = ctx.latest(topic, OccupancyGrid, LATCHED)
+        if grid is None:
+            return False
+        if not first:
+            first.append(ctx.now)
+        return ctx.now - first[0] >= settle
+
+    return WaitFor(ctx, ready, timeout, f"the first map on {topic}", name="WaitForMap")
+
+
 def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
                     circumscribed_radius: float = 0.3,
                     home_tolerance: float = 0.3) -> Mission:
     """explore_lite as a mission (module docstring)."""
     p = params or ExploreParams()
     explore = Explore(ctx, p)
-    # the first /map comes after SLAM's first scan: only then is map -> odom right
-    steps = [WaitFor(ctx, lambda: ctx.latest("/map", OccupancyGrid, LATCHED) is not None,
-                     30.0, "the first /map", name="WaitForMap"),
-             RememberHome(ctx),
+    steps = [wait_for_map(ctx), RememberHome(ctx),
              Escape(ctx, circumscribed_radius),
              explore]
     if p.return_to_init:

@@ -18,7 +18,7 @@ from typing import Any
 from py_trees.common import Status
 from py_trees.composites import Sequence as SequenceNode
 
-from navstack.core.msgs import OccupancyGrid, Pose2D
+from navstack.core.msgs import Pose2D
 from navstack.missions.behaviours import (
     LookAround,
     MissionBehaviour,
@@ -26,11 +26,10 @@ from navstack.missions.behaviours import (
     RememberHome,
     ReturnHome,
     SaveMap,
-    WaitFor,
 )
 from navstack.missions.context import MissionContext
+from navstack.missions.explore import wait_for_map
 from navstack.missions.mission import Mission
-from navstack.runtime.bus import LATCHED
 
 __all__ = ["PoseVisit", "VisitPoses", "map_poses_mission"]
 
@@ -105,9 +104,7 @@ def map_poses_mission(ctx: MissionContext, poses: Sequence[tuple[str, Pose2D]],
     """Visit ``poses`` with SLAM and save the map to ``save_path`` (module docstring)."""
     visit = VisitPoses(ctx, poses, look_around)
     steps: list[Any] = [
-        WaitFor(ctx, lambda: ctx.latest("/map", OccupancyGrid, LATCHED) is not None, 30.0,
-                "the first /map", name="WaitForMap"),
-        RememberHome(ctx), visit]
+        wait_for_map(ctx), RememberHome(ctx), visit]
     if return_home:
         steps.append(ReturnHome(ctx, tolerance=home_tolerance))
     steps.append(SaveMap(ctx, save_path))

@@ -6,8 +6,8 @@
   :class:`~navstack.runtime.tf_filter.TfMessageFilter` of ``scan_queue_size``;
 * publishes ``map_frame -> odom_frame`` every ``transform_publish_period`` (stamped
   ``transform_timeout`` ahead, as slam_toolbox does, so lookups at the newest odometry time
-  never wait for it) once the first scan is placed, and the occupancy grid on ``/map``
-  (latched) every ``map_update_interval``;
+  never wait for it) and the occupancy grid on ``/map`` (latched) every
+  ``map_update_interval``;
 * services ``/slam_toolbox/save_map`` (``{"name": path}`` -> YAML + PGM),
   ``/slam_toolbox/serialize_map`` (``{"filename": path}``) and
   ``/slam_toolbox/deserialize_pose_graph`` (``{"filename": path, "match_type":
@@ -178,10 +178,6 @@ class SlamNode(Node):
 
     def _publish_transform(self) -> None:
         self._scans.drain()
-        if self.mapper is None or not self.mapper.nodes:
-            # no scan placed yet: map -> odom is unknown (with map_start_pose it is *not*
-            # the identity), and a future-dated guess would outlive the first real one
-            return
         p = self.params
         m2o = self.map_to_odom
         transform = Transform.from_pose2d(Pose2DMsg(float(m2o[0]), float(m2o[1]),
