@@ -4,8 +4,8 @@ The mission itself never sees the simulated world; these watchers do, from outsi
 
 * :class:`CoverageTracker` -- the fraction of the *reachable free space* (the world's
   free cells the robot can observe, :func:`~navstack.exploration.ideal.reachable_free_space`)
-  that is known in each published ``/map``, over time: time to 90 % / 95 %, the final
-  completeness;
+  that is known in each published ``/map`` (or global costmap, when exploring without
+  SLAM), over time: time to 90 % / 95 %, the final completeness;
 * :class:`SlamLatency` -- for every scan SLAM turned into a node, the time until a ``/map``
   containing it was published (simulated time), plus the measured wall time of building
   the largest map of the run (a robot computes the map in real time);
@@ -58,6 +58,8 @@ class CoverageTracker:
 
     stack: NavStack
     sensor_range: float
+    topic: str = "/map"
+    """``/map`` (SLAM), or a costmap topic when exploring without SLAM."""
     times: list[float] = field(default_factory=list)
     fractions: list[float] = field(default_factory=list)
 
@@ -71,8 +73,9 @@ class CoverageTracker:
         self.xy = np.column_stack((w.origin_x + (cols + 0.5) * w.resolution,
                                    w.origin_y + (rows + 0.5) * w.resolution))
         self.last: OccupancyGrid | None = None
-        self._sub = self.stack.runtime.bus.subscribe("/map", OccupancyGrid, self._on_map,
-                                                     LATCHED)
+        qos = LATCHED if self.topic == "/map" else QoS(depth=1)
+        self._sub = self.stack.runtime.bus.subscribe(self.topic, OccupancyGrid, self._on_map,
+                                                     qos)
 
     def known_fraction(self, grid: OccupancyGrid) -> float:
         info = grid.info

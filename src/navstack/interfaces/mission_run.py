@@ -23,7 +23,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path as FsPath
 from typing import Any
 
@@ -57,6 +57,7 @@ from navstack.missions.context import MissionContext
 from navstack.missions.explore import FRONTIERS_TOPIC
 from navstack.missions.mission import MISSION_STATE_TOPIC, MissionRunner, MissionStatus
 from navstack.runtime.config import load_yaml
+from navstack.sim.worlds import load_world
 
 __all__ = ["MissionRun", "run_mission", "start_mission"]
 
@@ -100,8 +101,16 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     elif loc_name == "amcl":  # seeded: same seed, same run
         localization = AmclLocalization({"random_seed": seed})
     wall0 = time.perf_counter()
+    map_grid = None
+    explore_without_slam = spec.name == "explore" and loc_name != "slam"
+    if explore_without_slam:
+        # exploring with given poses: the map server serves an all-unknown map and the
+        # costmaps' obstacle layers map what the lidar sees (no SLAM error)
+        w = load_world(world or spec.world)
+        truth = w.to_occupancy_grid()
+        map_grid = replace(truth, data=np.full_like(truth.data, -1))
     stack = NavStack(world or spec.world, robot, nav2_path, seed=seed,
-                     localization=localization).start()
+                     localization=localization, map_grid=map_grid).start()
     out.mkdir(parents=True, exist_ok=True)
     ctx = MissionContext(stack.runtime)
     setup = MissionSetup(stack, ctx, out, opts, nav2, str(nav2_path))
@@ -114,8 +123,10 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
     lidar = stack.robot.sensors.lidar
     slam = loc_name == "slam"
-    coverage = CoverageTracker(stack, min(lidar.range_max, 3.5) if slam else lidar.range_max) \
-        if slam else None
+    coverage = None
+    if slam or explore_without_slam:
+        topic = "/map" if slam else "/global_costmap/costmap"
+        coverage = CoverageTracker(stack, lidar.range_max, topic)
     latency = SlamLatency(stack) if slam else None
     response = CommandResponse(stack)
     return MissionRun(spec, stack, runner, setup, recorder, coverage, latency, response,
@@ -208,7 +219,7 @@ def evaluate(run: MissionRun) -> dict[str, Any]:
             "coverage_trace": [[round(t - t0, 2), round(f, 4)]
                                for t, f in zip(cov.times, cov.fractions, strict=True)],
         })
-        if cov.last is not None:
+        if cov.last is not None and cov.topic == "/map":
             try:
                 score = occupancy_iou(cov.last, stack.world.to_occupancy_grid())
                 report["map_iou"] = round(score.iou, 4)
