@@ -77,14 +77,17 @@ def reference(world: str) -> dict[str, float]:
             "reference_speed_m_s": speed, "reference_wall_s": time.perf_counter() - t0}
 
 
-def run_case(world: str, strategy: str, seed: int) -> dict[str, Any]:
-    """One exploration run; the report figures of ``navstack mission explore``."""
+def run_case(world: str, strategy: str, seed: int,
+             localization: str | None = None) -> dict[str, Any]:
+    """One exploration run; the report figures of ``navstack mission explore``.
+    ``localization`` ``"perfect"`` explores with given poses (no SLAM error)."""
     from navstack.interfaces.mission_catalog import MissionOptions
     from navstack.interfaces.mission_run import evaluate, start_mission
 
     with tempfile.TemporaryDirectory() as tmp:
         run = start_mission("explore", Path(tmp), world, ROBOT, seed,
                             MissionOptions(strategy=strategy,
+                                           localization=localization,  # type: ignore[arg-type]
                                            max_duration=MAX_DURATION.get(world, 3600.0)))
         runner = run.runner.start()
         while not runner.done:
@@ -98,6 +101,7 @@ def run_case(world: str, strategy: str, seed: int) -> dict[str, Any]:
             "max_spin_in_place_s", "pose_error_rms_m", "pose_error_max_m", "wall_time_s",
             "real_time_factor")
     case = {"world": world, "strategy": strategy, "seed": seed,
+            "localization": report["localization"],
             **{k: report.get(k, math.nan) for k in keys}}
     explore = report.get("explore", {})
     case["goals"] = explore.get("goals_sent", 0)
@@ -192,15 +196,17 @@ def _budgets(cases: list[dict[str, Any]], worlds: list[str], strategies: list[st
 
 
 def run(quick: bool, data_dir: Path | None, worlds: Sequence[str] | None = None,
-        seeds: Sequence[int] | None = None,
-        strategies: Sequence[str] | None = None) -> BenchResult:
-    """The suite (module docstring); ``worlds``/``seeds``/``strategies`` select a part."""
+        seeds: Sequence[int] | None = None, strategies: Sequence[str] | None = None,
+        localization: str | None = None) -> BenchResult:
+    """The suite (module docstring); ``worlds``/``seeds``/``strategies`` select a part,
+    ``localization="perfect"`` explores with given poses instead of SLAM."""
     result = BenchResult("exploration", show_cases=True)
     worlds = list(worlds or (("arena",) if quick else WORLDS))
     seeds = list(seeds or ((1,) if quick else SEEDS))
     strategies = list(strategies or STRATEGIES)
     refs = {w: reference(w) for w in worlds}
-    cases = [run_case(w, s, seed) for w in worlds for seed in seeds for s in strategies]
+    cases = [run_case(w, s, seed, localization) for w in worlds for seed in seeds
+             for s in strategies]
     result.cases = cases
     summarize(cases, refs, result)
     return result
