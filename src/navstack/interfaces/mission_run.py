@@ -56,6 +56,7 @@ from navstack.mapping.map_metrics import occupancy_iou
 from navstack.missions.context import MissionContext
 from navstack.missions.explore import FRONTIERS_TOPIC
 from navstack.missions.mission import MISSION_STATE_TOPIC, MissionRunner, MissionStatus
+from navstack.nodes.known_pose_mapper import KnownPoseMapper, KnownPoseMapperParams
 from navstack.runtime.config import load_yaml
 from navstack.sim.worlds import load_world
 
@@ -104,13 +105,18 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     map_grid = None
     explore_without_slam = spec.name == "explore" and loc_name != "slam"
     if explore_without_slam:
-        # exploring with given poses: the map server serves an all-unknown map and the
-        # costmaps' obstacle layers map what the lidar sees (no SLAM error)
-        w = load_world(world or spec.world)
-        truth = w.to_occupancy_grid()
+        # exploring with given poses: the map server starts with an all-unknown map and a
+        # known-pose mapper builds /map from the scans (no SLAM error)
+        truth = load_world(world or spec.world).to_occupancy_grid()
         map_grid = replace(truth, data=np.full_like(truth.data, -1))
     stack = NavStack(world or spec.world, robot, nav2_path, seed=seed,
                      localization=localization, map_grid=map_grid).start()
+    if explore_without_slam:
+        mapper_params = KnownPoseMapperParams(
+            max_laser_range=stack.robot.sensors.lidar.range_max,
+            map_minimum_extent=list(stack.world.bounds))
+        KnownPoseMapper(stack.runtime, mapper_params).configure()
+        stack.runtime.nodes["known_pose_mapper"].activate()
     out.mkdir(parents=True, exist_ok=True)
     ctx = MissionContext(stack.runtime)
     setup = MissionSetup(stack, ctx, out, opts, nav2, str(nav2_path))
@@ -125,8 +131,7 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
     slam = loc_name == "slam"
     coverage = None
     if slam or explore_without_slam:
-        topic = "/map" if slam else "/global_costmap/costmap"
-        coverage = CoverageTracker(stack, lidar.range_max, topic)
+        coverage = CoverageTracker(stack, lidar.range_max)
     latency = SlamLatency(stack) if slam else None
     response = CommandResponse(stack)
     return MissionRun(spec, stack, runner, setup, recorder, coverage, latency, response,
@@ -219,7 +224,7 @@ def evaluate(run: MissionRun) -> dict[str, Any]:
             "coverage_trace": [[round(t - t0, 2), round(f, 4)]
                                for t, f in zip(cov.times, cov.fractions, strict=True)],
         })
-        if cov.last is not None and cov.topic == "/map":
+        if cov.last is not None:
             try:
                 score = occupancy_iou(cov.last, stack.world.to_occupancy_grid())
                 report["map_iou"] = round(score.iou, 4)
