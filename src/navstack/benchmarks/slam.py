@@ -1,6 +1,8 @@
 """``navstack bench slam``: SLAM accuracy and speed on the Intel, ACES and CSAIL logs.
 
-Each "corrected" CARMEN log in ``<data_dir>/carmen`` is run through
+Each "corrected" CARMEN log ``carmen/<name>-corrected.log.gz`` (shipped in
+``navstack/data``; :func:`~navstack.benchmarks.common.data_file` says where else it is
+looked for) is run through
 :func:`navstack.mapping.offline.run_carmen` (the log profile: every scan becomes a node,
 batch optimisation at the end) and the final trajectory is scored against the log's
 corrected FLASER poses with the relative pose error of Kümmerle et al. 2009 over
@@ -26,8 +28,13 @@ import math
 import time
 from pathlib import Path
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
-from navstack.core.errors import NavstackError
+from navstack.benchmarks.common import (
+    BenchDataMissing,
+    BenchResult,
+    Progress,
+    data_file,
+    no_progress,
+)
 from navstack.mapping.offline import run_carmen
 
 LOGS = ("intel", "aces", "csail")
@@ -47,30 +54,27 @@ PEER_NOTE = ("peer (context only, not run): Cartographer 13 ms/scan on Intel (13
              "SLAM library is installable here")
 
 
-class BenchDataMissing(NavstackError, FileNotFoundError):
-    """A benchmark's input data is not where it was looked for."""
+def log_path(data_dir: Path | None, name: str) -> Path:
+    """``carmen/<name>-corrected.log.gz`` from the data folders (:func:`data_file`);
+    raises :class:`BenchDataMissing` naming the file and the folders searched."""
+    return data_file(f"carmen/{name}-corrected.log.gz", data_dir)
 
 
-def log_path(data_dir: Path, name: str) -> Path:
-    """``<data_dir>/carmen/<name>-corrected.log.gz``; raises :class:`BenchDataMissing`."""
-    folder = data_dir / "carmen"
-    path = folder / f"{name}-corrected.log.gz"
-    if not path.is_file():
-        where = folder if folder.is_dir() else data_dir
-        raise BenchDataMissing(
-            f"CARMEN log {path.name} not found in {where}: pass --data-dir with the folder "
-            "that holds carmen/ (the shared data, ../shared/data; see its README) or set "
-            "NAVSTACK_DATA")
-    return path
+def _prefixed(progress: Progress, prefix: str) -> Progress:
+    def report(stage: str, done: int, total: int) -> None:
+        progress(f"{prefix} {stage}", done, total)
+
+    return report
 
 
-def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
+def run(quick: bool, data_dir: Path | None = None,
+        progress: Progress = no_progress) -> BenchResult:
     """Run SLAM on the three logs; metrics as in the module docstring."""
-    root = data_dir or default_data_dir()
-    paths = {name: log_path(root, name) for name in LOGS}  # fail before any work
+    paths = {name: log_path(data_dir, name) for name in LOGS}  # fail before any work
     result = BenchResult("slam")
     for name, path in paths.items():
-        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None)
+        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None,
+                         progress=_prefixed(progress, name))
         if res.rpe is None:
             raise BenchDataMissing(f"{path}: no reference poses (not an anchored 'corrected' "
                                    "log), cannot score it")
@@ -97,7 +101,9 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         if res.speedup is None:
             result.notes.append(f"{name}: timestamps too coarse to give the log duration "
                                 f"({name}_speedup left out)")
+    progress("simulated mapping", 0, 1)
     _run_sim(result, quick)
+    progress("simulated mapping", 1, 1)
     scope = (f"quick: first {QUICK_SCANS} scans of each log, budgets not checked" if quick
              else "full logs, every scan a node (log profile), batch optimisation at the end")
     result.notes += [

@@ -62,6 +62,7 @@ class Navigator:
     def _start(self, client: ActionClient[Any], goal: Any) -> bool:
         if self._task is not None and not self._task.done:
             self._task.cancel()
+        self.last_error = ""
         try:
             self._task = client.send_goal(goal)
         except NavstackError as exc:

@@ -18,11 +18,11 @@ exist only after ``start()``; reading them before raises :class:`StackNotStarted
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from navstack.core.errors import LifecycleError
 from navstack.core.msgs import OccupancyGrid, Pose2D
@@ -42,11 +42,12 @@ from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_filter_servers import FilterServers, create_filter_servers
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
+from navstack.navigation.nav2_params import Nav2Params, load_nav2_params, stack_navigation
 from navstack.navigation.planner_server import PlannerServer
 from navstack.navigation.waypoint_follower import WaypointFollower
 from navstack.nodes.amcl import AmclNode
 from navstack.nodes.slam import SlamNode
-from navstack.runtime.config import load_stack, load_yaml
+from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
@@ -54,11 +55,25 @@ from navstack.sim.simulator import Simulator
 from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
-__all__ = ["NavStack", "StackNotStarted", "default_nav2_params_path"]
+__all__ = ["NavStack", "StackExtension", "StackNotStarted", "default_nav2_params_path"]
 
 
 def default_nav2_params_path() -> Path:
     return Path(str(resources.files("navstack") / "config" / "nav2_params.yaml"))
+
+
+class StackExtension(Protocol):
+    """Nodes added to a stack at ``start()``, right after the simulator (a vehicle link
+    and its simulated vehicle, :mod:`navstack.interfaces.hil`).  ``wired``: the parts of
+    the simulated robot the extension serves instead of the simulator node (``"base"``,
+    ``"odometry"``, ``"imu"``, ``"gnss"``, ``"magnetometer"``)."""
+
+    wired: frozenset[str]
+
+    def attach(self, runtime: Runtime, sim: SimulatorNode) -> None: ...
+
+    def ready(self, runtime: Runtime) -> bool:
+        """Whether the extension is up (``start()`` waits for it, at most 2 s)."""
 
 
 class StackNotStarted(LifecycleError):
@@ -90,10 +105,12 @@ class NavStack:
     configured and active after :meth:`start`."""
 
     def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
-                 nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
+                 nav2_params: str | Path | Mapping[str, Any] | Nav2Params | None = None,
+                 seed: int = 0,
                  spawn: Pose2D | None = None, *,
                  localization: LocalizationName | Localization = "perfect",
-                 physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None) -> None:
+                 physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
+                 extensions: Sequence[StackExtension] = ()) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
         the map given to navigation (default: the world's true static map).
 
@@ -106,11 +123,8 @@ class NavStack:
 
         Nothing runs yet: the arguments are resolved and validated into
         :attr:`description`; :meth:`start` brings the stack up."""
-        if nav2_params is None or isinstance(nav2_params, str | Path):
-            path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
-            nav, file = load_yaml(path), str(path)
-        else:
-            nav, file = dict(nav2_params), "<nav2 params>"
+        checked = load_nav2_params(nav2_params)  # errors name the file; partial files merge
+        nav, file = checked.data, checked.file
         self.description: StackDescription = describe_stack(
             load_world(world) if isinstance(world, str) else world,
             load_robot(robot) if isinstance(robot, str) else robot,
@@ -121,6 +135,7 @@ class NavStack:
         self.robot = d.robot
         self.footprint = d.footprint
         self.body_footprint = d.body_footprint
+        self.extensions = tuple(extensions)
         self._running: _Running | None = None
 
     # --- bring-up --------------------------------------------------------------------------
@@ -136,6 +151,8 @@ class NavStack:
             return self
         rt = Runtime()
         sim = self._start_simulation(rt)
+        for extension in self.extensions:
+            extension.attach(rt, sim)
         map_server, amcl, slam = self._start_localization(rt)
         filter_servers = self._start_filter_servers(rt)
         global_costmap, local_costmap = self._start_costmaps(rt)
@@ -148,6 +165,9 @@ class NavStack:
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
+        if self.extensions:  # e.g. a vehicle link's first odometry and map -> odom
+            rt.scheduler.run_until(2.0, until=lambda: all(e.ready(rt) for e in self.extensions))
+            sim.advance()
         if amcl is not None:
             # AMCL publishes map -> odom after its first scan: wait for it (as a Nav2
             # launch waits for localization before sending goals), at most 2 s
@@ -160,8 +180,9 @@ class NavStack:
     def _start_simulation(self, rt: Runtime) -> SimulatorNode:
         d = self.description
         perfect = isinstance(d.localization, PerfectLocalization)
+        wired = frozenset().union(*(e.wired for e in self.extensions))
         return SimulatorNode(rt, Simulator(d.world, d.robot, d.seed, d.spawn),
-                             d.physics_rate_hz, perfect)
+                             d.physics_rate_hz, perfect, wired=wired)
 
     def _start_localization(self, rt: Runtime
                             ) -> tuple[MapServer | None, AmclNode | None, SlamNode | None]:
@@ -277,7 +298,7 @@ class NavStack:
         cfg = load_stack(path)
         robot = (load_robot(cfg.robot) if isinstance(cfg.robot, str)
                  else robot_from_mapping(cfg.robot, file=str(path)))
-        nav = cfg.navigation_params() or None
+        nav = stack_navigation(cfg)
         spawn = Pose2D(*cfg.world.spawn) if cfg.world.spawn is not None else None
         return cls(cfg.world.name, robot, nav, cfg.seed, spawn,
                    localization="perfect" if cfg.world.perfect_localization else "external",

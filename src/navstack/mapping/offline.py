@@ -32,7 +32,7 @@ import json
 import math
 import statistics
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -132,8 +132,13 @@ def log_duration(stamps: FloatArray) -> float | None:
     return float(stamps.max() - stamps.min())
 
 
+Progress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: called as a run moves through its stages."""
+
+
 def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None = None, *,
-               max_scans: int | None = None, params_file: str = "") -> OfflineResult:
+               max_scans: int | None = None, params_file: str = "",
+               progress: Progress | None = None) -> OfflineResult:
     """Run SLAM over the laser scans of a CARMEN log (plain or ``.gz``).
 
     ``params_overrides`` are slam_toolbox parameters applied over :data:`LOG_PROFILE`
@@ -141,12 +146,16 @@ def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None 
     many scans.  Raises :class:`~navstack.mapping.carmen.CarmenLogError` if the log cannot
     be read, :class:`~navstack.core.errors.ConfigError` for bad parameters and
     :class:`OfflineSlamError` if the log holds no usable scan.  Garbled lines never abort
-    the run: they are listed in :attr:`OfflineResult.skipped`.
+    the run: they are listed in :attr:`OfflineResult.skipped`.  ``progress`` hears the
+    stages ``read log`` (0/1, 1/1), ``mapping`` (scans done of all) and ``optimise``.
     """
     if max_scans is not None and max_scans < 1:
         raise OfflineSlamError(f"max_scans must be at least 1, got {max_scans}")
+    report = progress or (lambda _stage, _done, _total: None)
     params = _params(params_overrides, params_file)
+    report("read log", 0, 1)
     log = read_carmen(log_path)
+    report("read log", 1, 1)
     if not log.scans:
         raise OfflineSlamError(f"{log.path}: no usable laser scans (FLASER / ROBOTLASER1 "
                                f"lines); {len(log.skipped)} lines skipped as garbled")
@@ -173,6 +182,7 @@ def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None 
     node_index = np.empty(len(scans), dtype=np.int64)
     wall = 0.0
     processed: list[float] = []  # times of the calls that made a node
+    report("mapping", 0, len(scans))
     for k, scan in enumerate(scans):
         t0 = time.perf_counter()
         made_node = mapper.process_scan(scan.ranges, scan.odom.tolist(), scan.timestamp)
@@ -181,9 +191,14 @@ def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None 
         if made_node:
             processed.append(dt)
         node_index[k] = len(mapper.nodes) - 1
+        if k % 50 == 49:
+            report("mapping", k + 1, len(scans))
+    report("mapping", len(scans), len(scans))
+    report("optimise", 0, 1)
     t0 = time.perf_counter()
     mapper.finalize()
     wall += time.perf_counter() - t0
+    report("optimise", 1, 1)
     ms = 1e3 * statistics.median(processed) if processed else math.nan
     trajectory = mapper.trajectory(odometry, node_index)
 

@@ -9,11 +9,13 @@ from navstack.interfaces.cli import (
     bag_cmds,
     demo_cmds,
     health_cmds,
+    link_cmds,
     mission_cmds,
     sim_cmds,
     slam_cmds,
+    telegram_cmds,
 )
 from navstack.interfaces.cli.common import app
 
-__all__ = ["app", "bag_cmds", "demo_cmds", "health_cmds", "mission_cmds", "sim_cmds",
-           "slam_cmds"]
+__all__ = ["app", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds", "mission_cmds",
+           "sim_cmds", "slam_cmds", "telegram_cmds"]

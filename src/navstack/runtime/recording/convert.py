@@ -18,6 +18,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from navstack.core import msgs as m
+from navstack.runtime.recording import convert_driver as d
 from navstack.runtime.recording import convert_geometry as g
 from navstack.runtime.recording import convert_nav2 as n
 from navstack.runtime.recording import convert_sensor as s
@@ -67,8 +68,21 @@ _TABLE: tuple[Conversion, ...] = (
                g.to_twist_with_covariance_stamped, g.from_twist_with_covariance_stamped),
     Conversion("geometry_msgs/msg/Polygon", m.Polygon, g.to_polygon, g.from_polygon),
     Conversion("sensor_msgs/msg/LaserScan", m.LaserScan, s.to_laser_scan, s.from_laser_scan),
+    # written with all its fields; a ROS PointCloud2 reads back as the xyz PointCloud
+    # below (the later entry of a ROS type is the one reading uses)
+    Conversion("sensor_msgs/msg/PointCloud2", m.PointCloud2, d.to_point_cloud2,
+               s.from_point_cloud),
     Conversion("sensor_msgs/msg/PointCloud2", m.PointCloud, s.to_point_cloud,
                s.from_point_cloud),
+    Conversion("sensor_msgs/msg/PointField", m.PointField, d.to_point_field,
+               d.from_point_field),
+    Conversion("sensor_msgs/msg/JointState", m.JointState, d.to_joint_state,
+               d.from_joint_state),
+    Conversion("diagnostic_msgs/msg/KeyValue", m.KeyValue, d.to_key_value, d.from_key_value),
+    Conversion("diagnostic_msgs/msg/DiagnosticStatus", m.DiagnosticStatus,
+               d.to_diagnostic_status, d.from_diagnostic_status),
+    Conversion("diagnostic_msgs/msg/DiagnosticArray", m.DiagnosticArray,
+               d.to_diagnostic_array, d.from_diagnostic_array),
     Conversion("sensor_msgs/msg/Imu", m.Imu, s.to_imu, s.from_imu),
     Conversion("sensor_msgs/msg/MagneticField", m.MagneticField, s.to_magnetic_field,
                s.from_magnetic_field),
