@@ -42,8 +42,8 @@ from navstack.core.msgs import (
 from navstack.sim.collision import footprint_collides
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, make_model
-from navstack.sim.packages import PackageWorld
 from navstack.sim.lidar3d import Lidar3dModel, cast_cloud
+from navstack.sim.packages import PackageWorld
 from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
 from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel

@@ -11,6 +11,7 @@ from navstack.interfaces.cli import (
     demo_cmds,
     health_cmds,
     link_cmds,
+    mission_cmds,
     sim_cmds,
     slam_cmds,
     telegram_cmds,
@@ -18,4 +19,5 @@ from navstack.interfaces.cli import (
 from navstack.interfaces.cli.common import app
 
 __all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds",
+           "mission_cmds",
            "sim_cmds", "slam_cmds", "telegram_cmds"]
