@@ -12,11 +12,8 @@ from navstack.core.rotations import rotation_angle, transform_to_matrix
 from navstack.interfaces.perception import PerceptionOptions, attach_perception
 from navstack.interfaces.stack import NavStack
 from navstack.missions.marker_behaviours import ApproachMarker, MarkerContext, marker_goal
-from navstack.missions.marker_missions import (
-    marker_frame_tree,
-    package_retrieval_tree,
-    run_tree,
-)
+from navstack.missions.marker_missions import marker_frame_mission, package_retrieval_mission
+from navstack.missions.mission import MissionRunner, MissionStatus
 from navstack.missions.search_viewpoints import search_viewpoints
 from navstack.sim.robot import load_robot
 from navstack.sim.world_io import world_from_mapping
@@ -56,9 +53,10 @@ def test_marker_frame_mission_in_the_office() -> None:
     stack.runtime.bus.subscribe("/mode", String, lambda m: modes.append(m.data))
     world = stack.world
     home = Pose2D(3.5, 3.0, 0.0)
-    out = run_tree(stack.runtime, marker_frame_tree(ctx, 12, world.waypoints["Marker_View"],
-                                                    home), 300.0)
-    assert out.status.name == "SUCCESS", out.failed
+    mission = marker_frame_mission(ctx, 12, world.waypoints["Marker_View"])
+    out = MissionRunner(stack.runtime, mission).run(300.0)
+    assert out.status is MissionStatus.SUCCEEDED, out.reason
+    assert out.data["marker_id"] == 12
     tf = transform_to_matrix(stack.runtime.tf.lookup("map", "aruco_marker_12").transform)
     truth = world.markers[0]
     assert np.linalg.norm(tf[:3, 3] - [truth.x, truth.y, truth.z]) < 0.05
@@ -76,14 +74,14 @@ def test_approach_goal_is_latched_once() -> None:
     stack.run_for(1.0)
     ctx = MarkerContext(stack.runtime)
     stack.run_for(0.0)  # latched marker map delivered
-    approach = ApproachMarker("approach", ctx, 12, distance=2.2)
+    approach = ApproachMarker(ctx, 12, distance=2.2)
     approach.tick_once()
-    first = approach.goal
+    first = approach.target
     assert first is not None and math.isclose(first.theta % (2 * math.pi), math.pi, abs_tol=0.05)
     ctx.markers.clear()  # the estimate disappears: the latched goal does not change
     stack.run_for(0.5)
     approach.tick_once()
-    assert approach.goal == first and approach.status.name == "RUNNING"
+    assert approach.target == first and approach.status.name == "RUNNING"
 
 
 def test_package_retrieval_in_a_small_room() -> None:
@@ -92,7 +90,8 @@ def test_package_retrieval_in_a_small_room() -> None:
         "packages": [{"id": 3, "position": [2.4, 1.6], "yaw": 0.3},
                      {"id": 4, "position": [1.6, 0.6], "yaw": 1.0}],
         "spawn": {"x": 0.6, "y": 1.5, "yaw": 0.0}})
-    from navstack.benchmarks.retrieval import GRIP_DISTANCE, nav2_params
+    from navstack.benchmarks.retrieval import nav2_params
+    from navstack.interfaces.mission_catalog import GRIP_DISTANCE
 
     stack = NavStack(world, load_robot("turtlebot3_waffle_pi"), nav2_params(), seed=1)
     per = attach_perception(stack, PerceptionOptions(
@@ -100,10 +99,10 @@ def test_package_retrieval_in_a_small_room() -> None:
         marker_map={"package_ids": [3, 4]}))
     ctx = MarkerContext(stack.runtime)
     grid = world.to_occupancy_grid()
-    tree = package_retrieval_tree(ctx, 3, search_viewpoints(grid, world.spawn), world.spawn,
-                                  grid, GRIP_DISTANCE, standoff=0.7)
-    out = run_tree(stack.runtime, tree, 300.0)
-    assert out.status.name == "SUCCESS", out.failed
+    mission = package_retrieval_mission(ctx, 3, search_viewpoints(grid, world.spawn), grid,
+                                        GRIP_DISTANCE, standoff=0.7)
+    out = MissionRunner(stack.runtime, mission).run(300.0)
+    assert out.status is MissionStatus.SUCCEEDED, out.reason
     sim = stack.sim.sim
     assert sim.packages.carried == 0 and sim.packages.total_collisions == 0
     assert math.hypot(sim.pose.x - 0.6, sim.pose.y - 1.5) < 0.3

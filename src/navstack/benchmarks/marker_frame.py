@@ -3,9 +3,10 @@
 Each seed starts the ``diff_drive`` stack (the Nav2 lab's camera: 640 x 480, 1.047 rad;
 images at 10 Hz) with AMCL on the office map from the world's spawn pose, attaches the
 camera, the ArUco detector (15 cm markers) and the marker map, and runs
-:func:`~navstack.missions.marker_missions.marker_frame_tree`: go to the ``Marker_View``
-waypoint near the tagged cabinet, look until marker 12 is on the map, approach it to 1 m,
-return to the start.  Then the marker map is saved as YAML beside the map and reloaded.
+:func:`~navstack.missions.marker_missions.marker_frame_mission` on the mission runner: go
+to the ``Marker_View`` waypoint near the tagged cabinet, look until marker 12 is on the
+map, approach it to 1 m, return to the start.  Then the marker map is saved as YAML
+beside the map and reloaded.
 
 Per run: the error of ``map -> aruco_marker_12`` (TF, after the mission) against the
 world's marker (position [m] and rotation angle [deg]), the distance from the start at
@@ -31,7 +32,8 @@ from navstack.core.rotations import rotation_angle, transform_to_matrix
 from navstack.interfaces.perception import PerceptionOptions, attach_perception
 from navstack.interfaces.stack import NavStack
 from navstack.missions.marker_behaviours import MarkerContext
-from navstack.missions.marker_missions import marker_frame_tree, run_tree
+from navstack.missions.marker_missions import marker_frame_mission
+from navstack.missions.mission import MissionRunner, MissionStatus
 from navstack.perception.aruco.marker_map import MarkerMap
 
 MARKER_ID = 12
@@ -47,9 +49,9 @@ def run_once(seed: int, workdir: Path, timeout: float = 600.0) -> dict[str, Any]
     world = stack.world
     home = world.spawn
     ctx = MarkerContext(stack.runtime)
-    tree = marker_frame_tree(ctx, MARKER_ID, world.waypoints["Marker_View"], home)
+    mission = marker_frame_mission(ctx, MARKER_ID, world.waypoints["Marker_View"])
     wall = time.perf_counter()
-    outcome = run_tree(stack.runtime, tree, timeout)
+    outcome = MissionRunner(stack.runtime, mission).run(timeout)
     truth = next(m for m in world.markers if m.id == MARKER_ID)
     try:
         tf = transform_to_matrix(stack.runtime.tf.lookup("map", f"aruco_marker_{MARKER_ID}")
@@ -70,7 +72,7 @@ def run_once(seed: int, workdir: Path, timeout: float = 600.0) -> dict[str, Any]
     same = (tf is not None and reloaded is not None and current is not None
             and float(np.linalg.norm(reloaded.position - current.position)) < 1e-5
             and float(np.linalg.norm(reloaded.position - tf[:3, 3])) <= 0.011)
-    return {"seed": seed, "status": outcome.status.name, "failed": outcome.failed,
+    return {"seed": seed, "status": outcome.status.value, "failed": outcome.reason,
             "sim_time_s": round(outcome.duration, 1),
             "position_error_m": round(pos_err, 4), "angle_error_deg": round(ang_err, 3),
             "within_tolerance": bool(pos_err <= POSITION_TOL and ang_err <= ANGLE_TOL_DEG),
@@ -95,11 +97,12 @@ def run(quick: bool = False, data_dir: Any = None) -> BenchResult:
         "angle_error_max_deg": max((c["angle_error_deg"] for c in finite), default=math.inf),
         "collisions": float(sum(c["collisions"] for c in cases)),
         "reloaded_same": float(sum(c["reloaded_same"] for c in cases)),
-        "missions_succeeded": float(sum(c["status"] == "SUCCESS" for c in cases)),
+        "missions_succeeded": float(sum(c["status"] == MissionStatus.SUCCEEDED.value
+                                        for c in cases)),
     }
     result.cases = cases
     result.show_cases = True
     for c in cases:
-        if c["status"] != "SUCCESS":
+        if c["status"] != MissionStatus.SUCCEEDED.value:
             result.notes.append(f"seed {c['seed']}: {c['status']} {c['failed']}")
     return result

@@ -8,7 +8,8 @@ random yaw), starts the ``turtlebot3_waffle_pi`` stack (its Nav2 parameters plus
 ``package_cloud`` observation source, global costmap at 5 Hz, see :func:`nav2_params`)
 with perfect localisation on the known map, attaches the camera (images at 10 Hz), the
 ArUco detector (5 cm markers), the marker map (packages 3 and 4) and the simulated gripper, and runs
-:func:`~navstack.missions.marker_missions.package_retrieval_tree` with a 600 s budget.
+:func:`~navstack.missions.marker_missions.package_retrieval_mission` on the mission
+runner with a 600 s budget.
 
 Per run: success (the tree succeeded, the target is held and the robot is within 0.3 m
 of home), time to locate the target (simulated seconds from the start to the package's
@@ -27,49 +28,23 @@ import time
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 from navstack.benchmarks.common import BenchResult
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
-from navstack.interfaces.perception import PerceptionOptions, attach_perception, with_package_cloud
+from navstack.interfaces.mission_catalog import (
+    RETRIEVAL_TARGET,
+    build_package_retrieval,
+    prepare_retrieval,
+)
+from navstack.interfaces.perception import with_package_cloud
 from navstack.interfaces.stack import NavStack
-from navstack.missions.marker_behaviours import MarkerContext
-from navstack.missions.marker_missions import package_retrieval_tree, run_tree
-from navstack.missions.search_viewpoints import search_viewpoints
+from navstack.missions.mission import MissionRunner, MissionStatus
 from navstack.runtime.config import load_yaml
-from navstack.sim.markers import PackageSpec
 from navstack.sim.robot import load_robot
-from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
-TARGET, OTHER = 3, 4
 ROBOT = "turtlebot3_waffle_pi"
 PARAMS = "turtlebot3_waffle_pi_nav2_params.yaml"
-GRIP_DISTANCE = 0.166
-"""Package centre ahead of base_link when gripping: front edge 0.076 m + 9 cm (the reach
-zone is 0 .. 12 cm; a 5 cm end face then leaves 4 cm for the stop and the estimate)."""
-
-
-def place_packages(world: World, rng: np.random.Generator, clearance: float = 0.5,
-                   spacing: float = 0.7, from_start: float = 0.8) -> tuple[PackageSpec, ...]:
-    """The two course packages at random free spots (see module docstring)."""
-    dist = distance_transform_edt(~world.occupied) * world.resolution
-    free = np.argwhere(dist >= clearance)
-    placed: list[tuple[float, float]] = []
-    out = []
-    for pid in (TARGET, OTHER):
-        for _ in range(1000):
-            r, c = free[rng.integers(len(free))]
-            x, y = world.cell_center(int(r), int(c))
-            if math.hypot(x - world.spawn.x, y - world.spawn.y) < from_start:
-                continue
-            if any(math.hypot(x - px, y - py) < spacing for px, py in placed):
-                continue
-            placed.append((x, y))
-            out.append(PackageSpec(f"package_{pid}", pid, "DICT_4X4_50", x, y,
-                                   float(rng.uniform(-math.pi, math.pi))))
-            break
-    return tuple(out)
 
 
 def nav2_params() -> dict[str, Any]:
@@ -83,22 +58,17 @@ def nav2_params() -> dict[str, Any]:
     return with_package_cloud(load_yaml(str(path)))
 
 
-def run_once(seed: int, timeout: float = 600.0, camera_rate_hz: float = 10.0
-             ) -> dict[str, Any]:
-    """One retrieval run (see module docstring)."""
-    world = load_world("arena")
-    rng = np.random.default_rng(1000 + seed)
-    world.packages = place_packages(world, rng)
-    stack = NavStack(world, load_robot(ROBOT), nav2_params(), seed=seed)
-    per = attach_perception(stack, PerceptionOptions(
-        camera_rate_hz=camera_rate_hz, detector={"marker_size": 0.05},
-        marker_map={"package_ids": [TARGET, OTHER]}))
-    ctx = MarkerContext(stack.runtime)
-    grid = world.to_occupancy_grid()
+def run_once(seed: int, timeout: float = 600.0) -> dict[str, Any]:
+    """One retrieval run (see module docstring): the ``package-retrieval`` mission of
+    ``navstack mission`` (same world preparation, perception and tree)."""
+    from importlib import resources
+
+    world, nav2 = prepare_retrieval(
+        load_world("arena"), load_yaml(str(resources.files("navstack") / "config" / PARAMS)),
+        seed)
+    stack = NavStack(world, load_robot(ROBOT), nav2, seed=seed).start()
+    mission, per = build_package_retrieval(stack)
     home = world.spawn
-    viewpoints = search_viewpoints(grid, home, clearance=0.3)
-    tree = package_retrieval_tree(ctx, TARGET, viewpoints, home, grid, GRIP_DISTANCE,
-                                  standoff=0.7)
     # the virtual obstacle of a package in the global costmap: first time its ring is lethal
     cm = stack.global_costmap.costmap
     in_costmap: dict[int, float] = {}
@@ -113,23 +83,24 @@ def run_once(seed: int, timeout: float = 600.0, camera_rate_hz: float = 10.0
 
     stack.runtime.scheduler.create_timer(0.02, poll)
     wall = time.perf_counter()
-    outcome = run_tree(stack.runtime, tree, timeout)
+    outcome = MissionRunner(stack.runtime, mission).run(timeout)
     sim = stack.sim.sim
     pose = sim.pose
     home_dist = math.hypot(pose.x - home.x, pose.y - home.y)
     held = sim.packages.carried is not None and sim.packages.specs[sim.packages.carried] \
-        .marker_id == TARGET
+        .marker_id == RETRIEVAL_TARGET
     first = per.marker_map.package_first_seen
     # a package's ring must reach the costmap; the target's only counts if it was not
     # already taken out (to be gripped) by then
     latencies = [in_costmap[p] - first[p] if p in in_costmap else math.inf for p in first
                  if p in in_costmap or p not in per.marker_map.ignored_packages]
     return {
-        "seed": seed, "success": bool(outcome.status.name == "SUCCESS" and held
+        "seed": seed, "success": bool(outcome.status is MissionStatus.SUCCEEDED and held
                                       and home_dist <= 0.3),
-        "status": outcome.status.name, "failed": outcome.failed,
+        "status": outcome.status.value, "failed": outcome.reason,
         "sim_time_s": round(outcome.duration, 1),
-        "locate_time_s": round(first[TARGET], 2) if TARGET in first else math.nan,
+        "locate_time_s": (round(first[RETRIEVAL_TARGET], 2) if RETRIEVAL_TARGET in first
+                          else math.nan),
         "held": held, "home_distance_m": round(home_dist, 3),
         "package_collisions": int(sim.packages.total_collisions),
         "collisions": int(sim.collisions),

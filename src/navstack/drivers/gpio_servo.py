@@ -37,6 +37,7 @@ from pydantic import Field, model_validator
 
 from navstack.core.errors import NavstackError
 from navstack.core.params import Params
+from navstack.drivers.gpio import GpioUnavailable, gpiozero_device, make_pin_factory
 
 __all__ = ["GpioServo", "ServoError", "ServoParams", "ServoUnavailable"]
 
@@ -48,8 +49,9 @@ class ServoError(NavstackError, ValueError):
     """A servo request or setting that cannot be carried out (pin, duty)."""
 
 
-class ServoUnavailable(NavstackError):
-    """No GPIO: gpiozero missing, no pin factory for this machine, or the pin is busy."""
+ServoUnavailable = GpioUnavailable
+"""No GPIO: gpiozero missing, no pin factory for this machine, or the pin is busy (the
+GPIO drivers' error, :mod:`navstack.drivers.gpio`)."""
 
 
 class ServoParams(Params):
@@ -78,19 +80,6 @@ class ServoParams(Params):
         return self
 
 
-def _mock_factory() -> Any:
-    try:
-        from gpiozero.pins.mock import MockFactory, MockPWMPin
-    except ImportError as exc:
-        raise ServoUnavailable(_missing(exc)) from None
-    return MockFactory(pin_class=MockPWMPin)
-
-
-def _missing(exc: ImportError) -> str:
-    return (f"gpiozero is not installed ({exc}); install it with "
-            "`pip install navstack[hardware]`")
-
-
 class GpioServo:
     """A hobby servo on one PWM pin (see module docstring).
 
@@ -102,15 +91,8 @@ class GpioServo:
                  sleep: Callable[[float], None] = time.sleep,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.params = params or ServoParams()
-        if pin_factory is not None:
-            self._factory = pin_factory
-        elif self.params.pin_factory == "mock":
-            self._factory = _mock_factory()
-        elif self.params.pin_factory == "default":
-            self._factory = None
-        else:
-            raise ServoUnavailable(f"unknown pin_factory {self.params.pin_factory!r}; use "
-                                   "'default' or 'mock'")
+        self._factory = make_pin_factory(
+            pin_factory if pin_factory is not None else self.params.pin_factory, pwm=True)
         self._sleep = sleep
         self._clock = clock
         self._device: Any = None
@@ -131,17 +113,12 @@ class GpioServo:
         """Claim the pin and start PWM at the open duty."""
         if self._device is not None:
             return
-        try:
-            from gpiozero import PWMOutputDevice
-            from gpiozero.exc import GPIOZeroError
-        except ImportError as exc:
-            raise ServoUnavailable(_missing(exc)) from None
+        device, gpio_error = gpiozero_device("PWMOutputDevice")
         p = self.params
         try:
-            self._device = PWMOutputDevice(p.pin, frequency=p.frequency,
-                                           initial_value=p.open_duty / 100.0,
-                                           pin_factory=self._factory)
-        except (GPIOZeroError, OSError, RuntimeError, ValueError) as exc:
+            self._device = device(p.pin, frequency=p.frequency,
+                                  initial_value=p.open_duty / 100.0, pin_factory=self._factory)
+        except (gpio_error, OSError, RuntimeError, ValueError) as exc:
             name = type(exc).__name__
             if "InvalidPin" in name:
                 raise ServoError(f"GPIO{p.pin} does not exist on this board ({exc}); the "

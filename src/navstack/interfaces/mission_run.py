@@ -58,6 +58,7 @@ from navstack.missions.explore import FRONTIERS_TOPIC
 from navstack.missions.mission import MISSION_STATE_TOPIC, MissionRunner, MissionStatus
 from navstack.nodes.known_pose_mapper import KnownPoseMapper, KnownPoseMapperParams
 from navstack.runtime.config import load_yaml
+from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
 __all__ = ["MissionRun", "run_mission", "start_mission"]
@@ -109,7 +110,11 @@ def start_mission(name: str, out: FsPath, world: str | None = None,
         # known-pose mapper builds /map from the scans (no SLAM error)
         truth = load_world(world or spec.world).to_occupancy_grid()
         map_grid = replace(truth, data=np.full_like(truth.data, -1))
-    stack = NavStack(world or spec.world, robot, nav2_path, seed=seed,
+    world_arg: str | World = world or spec.world
+    nav2_arg: FsPath | dict[str, Any] = nav2_path
+    if spec.prepare is not None:  # e.g. packages placed by the seed, the package cloud
+        world_arg, nav2_arg = spec.prepare(load_world(world or spec.world), dict(nav2), seed)
+    stack = NavStack(world_arg, robot, nav2_arg, seed=seed,
                      localization=localization, map_grid=map_grid).start()
     if explore_without_slam:
         mapper_params = KnownPoseMapperParams(

@@ -1,36 +1,36 @@
-"""The perception missions of issue 17 as py_trees trees, and a loop that ticks a tree.
+"""The perception missions of issue 17 on the mission layer (:class:`Mission`, run by
+:class:`~navstack.missions.mission.MissionRunner`, ``navstack mission NAME``).
 
-* :func:`marker_frame_tree` (Nav2 lab, ``marker-frame`` in the office): go near the
-  tagged obstacle, look around until its marker is on the map, approach it to refine the
-  estimate (the marker map publishes ``map -> aruco_marker_<id>`` as a static frame), then
-  return to the start;
-* :func:`package_retrieval_tree` (TurtleBot course, ``package-retrieval`` in the arena):
-  look for the target package from the viewpoints of
-  :func:`~navstack.missions.search_viewpoints.search_viewpoints` (turning in place at each,
-  stopping as soon as the target is on the map), take the target's ring out of the
-  costmaps, drive to a pose in front of it, dock until it is in the gripper's reach,
-  grip, and return home with it.  The other packages stay in the costmaps through the
-  package cloud, so the planner routes around them.
+* :func:`marker_frame_mission` (Nav2 lab, ``marker-frame`` in the office): remember the
+  start, go near the tagged obstacle, look around until its marker is on the map,
+  approach it to refine the estimate (the marker map publishes
+  ``map -> aruco_marker_<id>`` as a static frame), then return to the start;
+* :func:`package_retrieval_mission` (TurtleBot course, ``package-retrieval`` in the
+  arena): look for the target package from the viewpoints of
+  :func:`~navstack.missions.search_viewpoints.search_viewpoints` (turning in place at
+  each, stopping as soon as the target is on the map), drive to a pose in front of it,
+  take its ring out of the costmaps, dock until it is in the gripper's reach, grip, and
+  return home with it.  The other packages stay in the costmaps through the package
+  cloud, so the planner routes around them.
 
-:func:`run_tree` ticks a tree on the stack's scheduler (``period`` of simulated time)
-until it ends or ``timeout`` passes.  It is the stand-in for the mission layer's runner
-(``navstack mission NAME``, being built on branch i16-missions): the lead wires these
-trees into it.
+Both end with :func:`return_home`: the mission layer's :class:`ReturnHome`, once more by
+way of open space if that fails, then the last centimetres straight onto the start.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import py_trees
-from py_trees.common import ParallelPolicy, Status
+from py_trees.behaviour import Behaviour
+from py_trees.common import ParallelPolicy
 from scipy.ndimage import distance_transform_edt
 
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.core.rotations import quaternion_to_matrix
+from navstack.missions.behaviours import NavigateToPose, RememberHome, ReturnHome, WaitFor
 from navstack.missions.marker_behaviours import (
     ApproachMarker,
     DockToPackage,
@@ -38,44 +38,93 @@ from navstack.missions.marker_behaviours import (
     Grip,
     IgnorePackage,
     MarkerContext,
-    NavigateTo,
     SpinSearch,
-    WaitFor,
 )
-from navstack.runtime.node import Runtime
+from navstack.missions.mission import Mission
 
-__all__ = ["TreeOutcome", "marker_frame_tree", "package_retrieval_tree", "run_tree",
+__all__ = ["marker_frame_mission", "package_retrieval_mission", "return_home",
            "standoff_pose"]
 
+HOME = "home"
 
-def _retry(name: str, child: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+
+def _go_on(name: str, child: Behaviour) -> Behaviour:
     """Whatever the child's outcome, go on (a search step that found nothing)."""
     return py_trees.decorators.FailureIsSuccess(name=name, child=child)
 
 
-def marker_frame_tree(ctx: MarkerContext, marker_id: int, view: Pose2D, home: Pose2D,
-                      approach_distance: float = 1.0, min_inliers_wait: float = 3.0
-                      ) -> py_trees.behaviour.Behaviour:
+def _home(ctx: MarkerContext) -> Pose2D | None:
+    home = ctx.results.get(HOME)
+    return home if isinstance(home, Pose2D) else None
+
+
+def _home_xy(ctx: MarkerContext) -> tuple[float, float] | None:
+    home = _home(ctx)
+    return None if home is None else (home.x, home.y)
+
+
+def return_home(ctx: MarkerContext, open_space: list[Pose2D]) -> Behaviour:
+    """Home (stored by :class:`RememberHome`) with :class:`ReturnHome`; if the navigator
+    gives up (a tight spot, a person in a door), once more by way of the pose of
+    ``open_space`` nearest home -- the stuck spot is left behind and the plan starts
+    afresh; then straight onto the start (the navigator stops within its goal tolerance,
+    the start is free: the robot left it)."""
+    attempts: list[Behaviour] = [ReturnHome(ctx, HOME, attempts=2, name="return home")]
+    if open_space:
+        attempts.append(py_trees.composites.Sequence("home via open space", memory=True,
+                                                     children=[
+            NavigateToPose(ctx, lambda: _nearest(open_space, _home(ctx)),
+                           name="to open space"),
+            ReturnHome(ctx, HOME, attempts=2, name="return home again")]))
+    return py_trees.composites.Sequence("back to the start", memory=True, children=[
+        py_trees.composites.Selector("return home", memory=True, children=attempts),
+        _SettleHome(ctx)])
+
+
+def _nearest(poses: list[Pose2D], to: Pose2D | None) -> Pose2D | None:
+    if to is None:
+        return None
+    return min(poses, key=lambda v: math.hypot(v.x - to.x, v.y - to.y))
+
+
+class _SettleHome(DriveStraightTo):
+    """The last centimetres onto the stored home, ending with its heading."""
+
+    def __init__(self, ctx: MarkerContext) -> None:
+        super().__init__(ctx, lambda: _home_xy(ctx), 0.0, max_distance=0.5, tolerance=0.03,
+                         name="onto the start")
+        self.mctx = ctx
+
+    def initialise(self) -> None:
+        super().initialise()
+        home = _home(self.mctx)
+        self.final_yaw = home.theta if home is not None else None
+
+
+def marker_frame_mission(ctx: MarkerContext, marker_id: int, view: Pose2D,
+                         approach_distance: float = 1.0, refine_time: float = 3.0
+                         ) -> Mission:
     """The Nav2 lab's vision task (module docstring)."""
     on_map = lambda: marker_id in ctx.markers  # noqa: E731
     look = py_trees.composites.Selector("detect the marker", memory=True, children=[
-        WaitFor("already on the map", ctx, on_map, timeout=1.0),
-        SpinSearch("look around", ctx, on_map)])
-    return py_trees.composites.Sequence("marker-frame", memory=True, children=[
-        NavigateTo("go near the tagged obstacle", ctx, lambda: view),
+        WaitFor(ctx, on_map, 1.0, f"marker {marker_id} on the map", name="already mapped"),
+        SpinSearch(ctx, on_map, f"marker {marker_id}", name="look around")])
+    root = py_trees.composites.Sequence("marker-frame", memory=True, children=[
+        RememberHome(ctx, HOME),
+        NavigateToPose(ctx, view, name="go near the tagged obstacle"),
         look,
-        ApproachMarker("approach the marker", ctx, marker_id, approach_distance),
-        _retry("refine the frame", WaitFor("refine", ctx, lambda: False,
-                                           timeout=min_inliers_wait)),
-        _home_with_retry(ctx, home, [view]),
-        _settle(ctx, home)])
+        ApproachMarker(ctx, marker_id, approach_distance, name="approach the marker"),
+        _go_on("refine the frame", WaitFor(ctx, lambda: False, refine_time,
+                                           "more sightings", name="refine")),
+        return_home(ctx, [view])])
 
+    def summary() -> dict[str, Any]:
+        found = ctx.marker_facing(marker_id)
+        return {"marker_id": marker_id,
+                "marker": None if found is None else [round(v, 4) for v in found]}
 
-def _settle(ctx: MarkerContext, home: Pose2D) -> py_trees.behaviour.Behaviour:
-    """The last centimetres home: the navigator stops within its goal tolerance (0.25 m);
-    the start pose is to be reached, so drive straight onto it (it is free: we left it)."""
-    return DriveStraightTo("onto the start", ctx, lambda: (home.x, home.y), 0.0,
-                           max_distance=0.5, final_yaw=home.theta, tolerance=0.03)
+    return Mission("marker-frame", root, ctx, "go near the tagged obstacle, publish its "
+                   "marker's static frame, return to the start", summary)
 
 
 def standoff_pose(ctx: MarkerContext, package_id: int, grid: OccupancyGrid, distance: float,
@@ -133,25 +182,22 @@ def _nearest_free(target: tuple[float, float], directions: list[float], robot: P
     return best[1] if best is not None else None
 
 
-def _const(pose: Pose2D) -> Callable[[], Pose2D]:
-    return lambda: pose
-
-
-def package_retrieval_tree(ctx: MarkerContext, target_id: int, viewpoints: list[Pose2D],
-                           home: Pose2D, grid: OccupancyGrid, grip_distance: float,
-                           standoff: float = 0.5) -> py_trees.behaviour.Behaviour:
+def package_retrieval_mission(ctx: MarkerContext, target_id: int,
+                              viewpoints: list[Pose2D], grid: OccupancyGrid,
+                              grip_distance: float, standoff: float = 0.5) -> Mission:
     """The TurtleBot course's retrieval (module docstring)."""
     found = lambda: target_id in ctx.packages  # noqa: E731
-    steps: list[py_trees.behaviour.Behaviour] = [
-        _retry("look from the start", SpinSearch("turn at the start", ctx, found))]
+    what = f"package {target_id}"
+    steps: list[Behaviour] = [
+        _go_on("look from the start", SpinSearch(ctx, found, what, name="turn at the start"))]
     for i, vp in enumerate(viewpoints):
-        steps.append(_retry(f"viewpoint {i}", py_trees.composites.Sequence(
+        steps.append(_go_on(f"viewpoint {i}", py_trees.composites.Sequence(
             f"look from viewpoint {i}", memory=True, children=[
-                NavigateTo(f"go to viewpoint {i}", ctx, _const(vp)),
-                SpinSearch(f"turn at viewpoint {i}", ctx, found)])))
+                NavigateToPose(ctx, vp, name=f"go to viewpoint {i}"),
+                SpinSearch(ctx, found, what, name=f"turn at viewpoint {i}")])))
     search = py_trees.composites.Parallel(
         "search", policy=ParallelPolicy.SuccessOnOne(), children=[
-            WaitFor("target seen", ctx, found),
+            WaitFor(ctx, found, math.inf, f"{what} seen", name="target seen"),
             py_trees.composites.Sequence("viewpoints", memory=True, children=steps)])
     tried: list[Pose2D] = []
 
@@ -167,76 +213,27 @@ def package_retrieval_tree(ctx: MarkerContext, target_id: int, viewpoints: list[
     # up to three approach directions: where the navigator cannot reach one (a tight spot
     # for the wide rear body), another side of the package often is reachable
     attempts = [py_trees.composites.Sequence(f"approach {i}", memory=True, children=[
-        NavigateTo("in front of the target", ctx, standoff_goal),
+        NavigateToPose(ctx, standoff_goal, name="in front of the target"),
         # the navigator stops within its goal tolerance: settle on the standoff pose so
         # the docking runs square to the package's face
-        DriveStraightTo("onto the standoff pose", ctx, standoff_xy, 0.0, max_distance=0.5,
-                        tolerance=0.02)]) for i in range(3)]
-    return py_trees.composites.Sequence("package-retrieval", memory=True, children=[
+        DriveStraightTo(ctx, standoff_xy, 0.0, max_distance=0.5, tolerance=0.02,
+                        name="onto the standoff pose")]) for i in range(3)]
+    root = py_trees.composites.Sequence("package-retrieval", memory=True, children=[
+        RememberHome(ctx, HOME),
         search,
-        WaitFor("target found", ctx, found, timeout=0.0),
+        WaitFor(ctx, found, 0.0, f"{what} on the map", name="target found"),
         py_trees.composites.Selector("reach the target", memory=True, children=attempts),
         # only now, next to it, does the target leave the costmaps (earlier the planner
         # would route through it)
-        IgnorePackage("target off the costmap", ctx, target_id),
-        DockToPackage("dock", ctx, target_id, grip_distance, speed=0.04),
-        Grip("grip", ctx),
-        _home_with_retry(ctx, home, viewpoints),
-        _settle(ctx, home)])
+        IgnorePackage(ctx, target_id, name="target off the costmap"),
+        DockToPackage(ctx, target_id, grip_distance, speed=0.04, name="dock"),
+        Grip(ctx, name="grip"),
+        return_home(ctx, viewpoints)])
 
+    def summary() -> dict[str, Any]:
+        return {"target_id": target_id, "viewpoints": len(viewpoints),
+                "gripper": ctx.gripper_status,
+                "target": ctx.package_xy(target_id)}
 
-def _home_with_retry(ctx: MarkerContext, home: Pose2D, viewpoints: list[Pose2D]
-                     ) -> py_trees.behaviour.Behaviour:
-    """Home; if the navigator gives up (a tight spot, a person in a door), once more by
-    way of the viewpoint nearest home: the stuck spot is left behind and the plan starts
-    afresh."""
-    attempts: list[py_trees.behaviour.Behaviour] = [
-        NavigateTo("return to the start", ctx, lambda: home)]
-    if viewpoints:
-        near = min(viewpoints, key=lambda v: math.hypot(v.x - home.x, v.y - home.y))
-        attempts.append(py_trees.composites.Sequence("home via open space", memory=True,
-                                                     children=[
-            NavigateTo("to open space", ctx, _const(near)),
-            NavigateTo("return to the start again", ctx, lambda: home)]))
-    return py_trees.composites.Selector("return home", memory=True, children=attempts)
-
-
-@dataclass
-class TreeOutcome:
-    """How a tree run ended."""
-
-    status: Status
-    duration: float
-    ticks: int
-    failed: str = ""
-    """Name and message of the behaviour that failed, if any."""
-
-
-def run_tree(runtime: Runtime, root: py_trees.behaviour.Behaviour, timeout: float,
-             period: float = 0.1) -> TreeOutcome:
-    """Tick ``root`` every ``period`` s of simulated time until it ends or ``timeout``."""
-    tree = py_trees.trees.BehaviourTree(root)
-    tree.setup()
-    start = runtime.now
-    ticks = 0
-    status = Status.RUNNING
-    while runtime.now - start < timeout:
-        tree.tick()
-        ticks += 1
-        status = root.status
-        if status in (Status.SUCCESS, Status.FAILURE):
-            break
-        runtime.scheduler.run_until(runtime.now + period)
-    failed = ""
-    if status is Status.FAILURE:
-        node = root  # follow the failure down: the failed child of each failed composite
-        while list(node.children):
-            failing = [c for c in node.children if c.status is Status.FAILURE]
-            if not failing:
-                break
-            node = failing[-1]
-        failed = f"{node.name}: {node.feedback_message or getattr(node, 'reason', '')}"
-    elif status is Status.RUNNING:
-        root.stop(Status.INVALID)
-        failed = f"timed out after {timeout:.0f} s"
-    return TreeOutcome(status, runtime.now - start, ticks, failed)
+    return Mission("package-retrieval", root, ctx, "find the target package, avoid the "
+                   "others, grip it and bring it home", summary)

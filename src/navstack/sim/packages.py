@@ -19,11 +19,14 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import distance_transform_edt
 
+from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D
 from navstack.sim.collision import polygon_hits_moving
 from navstack.sim.markers import PackageSpec
 from navstack.sim.robot import GripperParams
+from navstack.sim.world import World
 
 FloatArray = NDArray[np.float64]
 _NO_CIRCLES = np.zeros((0, 3))
@@ -122,3 +125,34 @@ class PackageWorld:
 
 
 __all__ = ["PackageWorld"]
+
+
+def place_packages(world: World, rng: np.random.Generator, ids: tuple[int, ...] = (3, 4),
+                   dictionary: str = "DICT_4X4_50", clearance: float = 0.5,
+                   spacing: float = 0.7, from_start: float = 0.8) -> tuple[PackageSpec, ...]:
+    """The TurtleBot course's packages (10 x 5 x 5 cm, 5 cm markers of ``dictionary`` on
+    every face, one per marker id of ``ids``) at random free spots of ``world``: at least
+    ``clearance`` [m] from walls and obstacles (a package's 0.3 m ring must leave a
+    0.31 m wide robot a way past it), ``spacing`` from each other and ``from_start``
+    from the spawn, random yaw."""
+    dist = distance_transform_edt(~world.occupied) * world.resolution
+    free = np.argwhere(dist >= clearance)
+    placed: list[tuple[float, float]] = []
+    out = []
+    for pid in ids:
+        spot = None
+        for _ in range(1000 if len(free) else 0):
+            r, c = free[rng.integers(len(free))]
+            x, y = world.cell_center(int(r), int(c))
+            if (math.hypot(x - world.spawn.x, y - world.spawn.y) >= from_start
+                    and all(math.hypot(x - px, y - py) >= spacing for px, py in placed)):
+                spot = (x, y)
+                break
+        if spot is None:
+            raise ConfigError(f"no free spot for package {pid} in world '{world.name}' "
+                              f"({clearance} m from obstacles, {spacing} m apart, "
+                              f"{from_start} m from the start)", key_path="packages")
+        placed.append(spot)
+        out.append(PackageSpec(f"package_{pid}", pid, dictionary, spot[0], spot[1],
+                               float(rng.uniform(-math.pi, math.pi))))
+    return tuple(out)
