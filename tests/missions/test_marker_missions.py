@@ -3,10 +3,14 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
+from typer.testing import CliRunner
 
+from navstack.app import app
 from navstack.core.msgs import Pose2D, String
 from navstack.core.rotations import rotation_angle, transform_to_matrix
 from navstack.interfaces.perception import PerceptionOptions, attach_perception
@@ -107,3 +111,28 @@ def test_package_retrieval_in_a_small_room() -> None:
     assert sim.packages.carried == 0 and sim.packages.total_collisions == 0
     assert math.hypot(sim.pose.x - 0.6, sim.pose.y - 1.5) < 0.3
     assert 4 in per.marker_map.package_centres()  # the other one stayed a virtual obstacle
+
+
+def test_package_retrieval_command_in_the_arena(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["mission", "package-retrieval", "--world", "arena",
+                                   "--seed", "0", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert res.output.splitlines()[-1].startswith("SUCCESS: SUCCEEDED")
+    report = json.loads((out / "report.json").read_text())
+    assert report["mission"] == "package-retrieval" and report["localization"] == "perfect"
+    assert report["package_held"] is True and report["package_collisions"] == 0
+    assert report["home_distance_m"] <= 0.3 and report["target_id"] == 3
+    assert [p[0] for p in report["packages"]] == [3, 4]  # placed by the seed
+    assert any(text.startswith("grip: holding package_3") for _, text in report["events"])
+
+
+def test_marker_mission_commands_explain_bad_worlds_and_robots() -> None:
+    runner = CliRunner()
+    res = runner.invoke(app, ["mission", "marker-frame", "--world", "arena"])
+    assert res.exit_code == 2
+    assert "world 'arena' needs a marker (markers:) and a 'Marker_View' waypoint" in res.output
+    assert "--world office" in res.output
+    res = runner.invoke(app, ["mission", "package-retrieval", "--robot", "diff_drive"])
+    assert res.exit_code == 2
+    assert "robot 'diff_drive' has no gripper" in res.output

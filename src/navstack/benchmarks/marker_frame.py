@@ -28,7 +28,12 @@ import numpy as np
 from navstack.benchmarks.common import BenchResult
 from navstack.core.errors import TransformError
 from navstack.core.map_files import save_map
-from navstack.core.rotations import rotation_angle, transform_to_matrix
+from navstack.core.rotations import transform_to_matrix
+from navstack.interfaces.mission_perception import (
+    ANGLE_TOL_DEG,
+    POSITION_TOL,
+    marker_frame_error,
+)
 from navstack.interfaces.perception import PerceptionOptions, attach_perception
 from navstack.interfaces.stack import NavStack
 from navstack.missions.marker_behaviours import MarkerContext
@@ -37,8 +42,6 @@ from navstack.missions.mission import MissionRunner, MissionStatus
 from navstack.perception.aruco.marker_map import MarkerMap
 
 MARKER_ID = 12
-POSITION_TOL = 0.10
-ANGLE_TOL_DEG = 5.0
 
 
 def run_once(seed: int, workdir: Path, timeout: float = 600.0) -> dict[str, Any]:
@@ -52,14 +55,12 @@ def run_once(seed: int, workdir: Path, timeout: float = 600.0) -> dict[str, Any]
     mission = marker_frame_mission(ctx, MARKER_ID, world.waypoints["Marker_View"])
     wall = time.perf_counter()
     outcome = MissionRunner(stack.runtime, mission).run(timeout)
-    truth = next(m for m in world.markers if m.id == MARKER_ID)
+    pos_err, ang_err = marker_frame_error(stack, MARKER_ID)
     try:
         tf = transform_to_matrix(stack.runtime.tf.lookup("map", f"aruco_marker_{MARKER_ID}")
                                  .transform)
-        pos_err = float(np.linalg.norm(tf[:3, 3] - [truth.x, truth.y, truth.z]))
-        ang_err = math.degrees(rotation_angle(tf[:3, :3], truth.rotation()))
     except TransformError:
-        tf, pos_err, ang_err = None, math.inf, math.inf
+        tf = None
     pose = stack.sim.sim.pose
     home_dist = math.hypot(pose.x - home.x, pose.y - home.y)
     # saved with the map, reloaded

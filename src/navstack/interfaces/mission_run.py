@@ -45,6 +45,7 @@ from navstack.interfaces.mission_eval import (
     SlamLatency,
     spin_in_place_max,
 )
+from navstack.interfaces.mission_perception import perception_figures
 from navstack.interfaces.mission_report import (
     coverage_figures,
     map_poses_figures,
@@ -243,6 +244,7 @@ def evaluate(run: MissionRun) -> dict[str, Any]:
         report.update(coverage_figures(report, traj))
     if "map_poses" in report:
         report.update(map_poses_figures(run, report))
+    report.update(perception_figures(stack, report))
     report["success"] = _success(report)
     return report
 
@@ -253,6 +255,11 @@ def _success(r: dict[str, Any]) -> bool:
         ok = ok and r.get("observed_fraction", 0.0) >= 0.95 and r["home_distance_m"] <= 0.3
     elif r["mission"] == "coverage":
         ok = ok and r.get("cells_visited", 0) == r.get("cells_total", -1) \
+            and r["home_distance_m"] <= 0.3
+    elif r["mission"] == "marker-frame":
+        ok = ok and bool(r.get("marker_frame_ok")) and r["home_distance_m"] <= 0.3
+    elif r["mission"] == "package-retrieval":
+        ok = ok and bool(r.get("package_held")) and r.get("package_collisions", 1) == 0 \
             and r["home_distance_m"] <= 0.3
     elif r["mission"] == "map-poses":
         ok = ok and bool(r.get("reload", {}).get("map_server_ok")) \
