@@ -1,13 +1,14 @@
 """Package retrieval in the arena (issue 17, acceptance 3), 20 seeds with random packages.
 
-Each seed places the TurtleBot course's two packages (10 x 5 x 5 cm, 5 cm ``DICT_4X4_50``
-markers on every face, ids 3 = target and 4) at random free spots of the ``arena`` world
-(at least 0.5 m from walls and obstacles -- the package's 0.3 m ring must leave the
-0.31 m wide robot a way past it --, 0.7 m from each other and 0.8 m from the start,
-random yaw), starts the ``turtlebot3_waffle_pi`` stack (its Nav2 parameters plus the
-``package_cloud`` observation source, global costmap at 5 Hz, see :func:`nav2_params`)
-with perfect localisation on the known map, attaches the camera (images at 10 Hz), the
-ArUco detector (5 cm markers), the marker map (packages 3 and 4) and the simulated gripper, and runs
+Each seed runs the ``package-retrieval`` mission of ``navstack mission`` (the same world
+preparation, perception and tree): the TurtleBot course's two packages (10 x 5 x 5 cm,
+5 cm ``DICT_4X4_50`` markers on every face, ids 3 = target and 4) at random free spots of
+the ``arena`` world (:func:`~navstack.sim.packages.place_packages`: at least 0.6 m from
+walls and obstacles, 0.7 m from each other and 0.8 m from the start, random yaw), the
+``turtlebot3_waffle_pi`` stack (its Nav2 parameters plus the ``package_cloud``
+observation source, global costmap at 5 Hz) with perfect localisation on the known map,
+the camera (images at 10 Hz), the ArUco detector (5 cm markers), the marker map
+(packages 3 and 4) and the simulated gripper;
 :func:`~navstack.missions.marker_missions.package_retrieval_mission` on the mission
 runner with a 600 s budget.
 

@@ -195,14 +195,18 @@ class IgnorePackage(MissionBehaviour):
 
 class DriveStraightTo(MissionBehaviour):
     """Face the point ``target()`` (Spin) and drive straight to it (DriveOnHeading) until
-    it is ``stop_distance`` ahead of ``base_link``, then optionally turn to ``final_yaw``;
-    FAILURE if the point is unknown, farther than ``max_distance``, or a motion fails.
-    Docking to a package, or the last centimetres to a pose the navigator reached only
-    within its goal tolerance."""
+    it is ``stop_distance`` ahead of ``base_link``, then optionally turn to ``final_yaw``
+    (a heading, or a callable giving one when the turn starts); FAILURE if the point is
+    unknown, farther than ``max_distance``, or a motion fails.  Docking to a package, or
+    the last centimetres to a pose the navigator reached only within its goal tolerance:
+    with ``stop_distance`` 0, a point behind the robot and within ``reverse_within`` [m]
+    is reached backwards (no half turn, which a long-bodied robot cannot always make next
+    to an obstacle)."""
 
     def __init__(self, ctx: MissionContext, target: Callable[[], tuple[float, float] | None],
                  stop_distance: float, max_distance: float = 1.0, speed: float = 0.05,
-                 final_yaw: float | None = None, tolerance: float = 0.01,
+                 final_yaw: float | Callable[[], float | None] | None = None,
+                 tolerance: float = 0.01, reverse_within: float = 0.3,
                  name: str = "DriveStraightTo") -> None:
         super().__init__(ctx, name)
         self.target = target
@@ -211,6 +215,7 @@ class DriveStraightTo(MissionBehaviour):
         self.speed = speed
         self.final_yaw = final_yaw
         self.tolerance = tolerance
+        self.reverse_within = reverse_within
         self._spins = self._drives = self._turns = 0
         self._handle: GoalHandle[Any] | None = None
 
@@ -238,6 +243,10 @@ class DriveStraightTo(MissionBehaviour):
             return self.failed(f"the target is {dist:.2f} m away (at most "
                                f"{self.max_distance:.2f} m)")
         remaining = dist - self.stop_distance
+        sign = 1.0
+        if (self.stop_distance <= 0.0 and abs(turn) > 0.5 * math.pi
+                and dist <= self.reverse_within):
+            sign, turn = -1.0, normalize_angle(turn - math.pi)  # aim the rear at it
         # the Spin behavior stops within ~0.1 rad: aim again before each leg; the legs
         # shorten as the point nears so the last one starts well aimed
         if remaining > self.tolerance and self._drives < 4:
@@ -248,10 +257,11 @@ class DriveStraightTo(MissionBehaviour):
             self._drives += 1
             leg = remaining if remaining < 0.12 or self._drives >= 3 else 0.7 * remaining
             self._handle = self.ctx.drive_on_heading.send_goal(
-                m.DriveOnHeadingGoal(leg, self.speed, 30.0))
+                m.DriveOnHeadingGoal(sign * leg, sign * self.speed, 30.0))
             return Status.RUNNING
-        if self.final_yaw is not None and self._turns < 3:
-            rest = normalize_angle(self.final_yaw - robot.theta)
+        final_yaw = self.final_yaw() if callable(self.final_yaw) else self.final_yaw
+        if final_yaw is not None and self._turns < 3:
+            rest = normalize_angle(final_yaw - robot.theta)
             if abs(rest) > 0.05:
                 self._turns += 1
                 self._handle = self.ctx.spin.send_goal(m.SpinGoal(rest, 10.0))

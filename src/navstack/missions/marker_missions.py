@@ -64,12 +64,14 @@ def _home_xy(ctx: MarkerContext) -> tuple[float, float] | None:
 
 
 def return_home(ctx: MarkerContext, open_space: list[Pose2D]) -> Behaviour:
-    """Home (stored by :class:`RememberHome`) with :class:`ReturnHome`; if the navigator
-    gives up (a tight spot, a person in a door), once more by way of the pose of
+    """Home (stored by :class:`RememberHome`) with :class:`ReturnHome` (one goal: a
+    failed goal has already run all the navigator's recoveries, about two minutes, and a
+    second one from the same spot fails the same way); if the navigator gives up (a
+    tight spot, a person in a door), again by way of the pose of
     ``open_space`` nearest home -- the stuck spot is left behind and the plan starts
     afresh; then straight onto the start (the navigator stops within its goal tolerance,
     the start is free: the robot left it)."""
-    attempts: list[Behaviour] = [ReturnHome(ctx, HOME, attempts=2, name="return home")]
+    attempts: list[Behaviour] = [ReturnHome(ctx, HOME, attempts=1, name="return home")]
     if open_space:
         attempts.append(py_trees.composites.Sequence("home via open space", memory=True,
                                                      children=[
@@ -210,6 +212,9 @@ def package_retrieval_mission(ctx: MarkerContext, target_id: int,
     def standoff_xy() -> tuple[float, float] | None:
         return (tried[-1].x, tried[-1].y) if tried else None
 
+    def standoff_yaw() -> float | None:
+        return tried[-1].theta if tried else None  # facing the target
+
     # up to three approach directions: where the navigator cannot reach one (a tight spot
     # for the wide rear body), another side of the package often is reachable
     attempts = [py_trees.composites.Sequence(f"approach {i}", memory=True, children=[
@@ -217,7 +222,8 @@ def package_retrieval_mission(ctx: MarkerContext, target_id: int,
         # the navigator stops within its goal tolerance: settle on the standoff pose so
         # the docking runs square to the package's face
         DriveStraightTo(ctx, standoff_xy, 0.0, max_distance=0.5, tolerance=0.02,
-                        name="onto the standoff pose")]) for i in range(3)]
+                        final_yaw=standoff_yaw, name="onto the standoff pose")])
+        for i in range(3)]
     root = py_trees.composites.Sequence("package-retrieval", memory=True, children=[
         RememberHome(ctx, HOME),
         search,

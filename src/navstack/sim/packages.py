@@ -128,13 +128,16 @@ __all__ = ["PackageWorld"]
 
 
 def place_packages(world: World, rng: np.random.Generator, ids: tuple[int, ...] = (3, 4),
-                   dictionary: str = "DICT_4X4_50", clearance: float = 0.5,
+                   dictionary: str = "DICT_4X4_50", clearance: float = 0.6,
                    spacing: float = 0.7, from_start: float = 0.8) -> tuple[PackageSpec, ...]:
     """The TurtleBot course's packages (10 x 5 x 5 cm, 5 cm markers of ``dictionary`` on
     every face, one per marker id of ``ids``) at random free spots of ``world``: at least
-    ``clearance`` [m] from walls and obstacles (a package's 0.3 m ring must leave a
-    0.31 m wide robot a way past it), ``spacing`` from each other and ``from_start``
-    from the spawn, random yaw."""
+    ``clearance`` [m] from walls and obstacles, ``spacing`` from each other and
+    ``from_start`` from the spawn, random yaw.  With 0.6 m a package's 0.3 m ring leaves
+    0.45 m to a wall: the TurtleBot3 Waffle Pi's 0.306 m body and a 5 cm costmap cell on
+    each side.  (At 0.5 m the 0.35 m gaps were wide enough for the planner, which plans
+    with the footprint's 0.11 m inscribed radius, and too narrow for the controller's
+    footprint check: 4 of 20 runs of ``navstack bench retrieval`` stalled there.)"""
     dist = distance_transform_edt(~world.occupied) * world.resolution
     free = np.argwhere(dist >= clearance)
     placed: list[tuple[float, float]] = []
