@@ -22,7 +22,7 @@ def test_known_pose_map_matches_the_world_and_pads_to_the_extent() -> None:
     assert latched
     grid = latched[-1]  # the mapper's newest map (the map server's true map came first)
     assert grid.header.frame_id == "map" and grid.header.stamp > 2.0
-    x0, y0, x1, y1 = stack.world.bounds
+    x0, y0, x1, _y1 = stack.world.bounds
     assert grid.info.origin.position.x <= x0 + 1e-9 and grid.info.origin.position.y <= y0
     assert grid.info.width * grid.info.resolution >= x1 - x0 - 1e-9
     data = np.asarray(grid.data)
