@@ -130,13 +130,14 @@ class MissionSpec:
 
 def _explore(setup: MissionSetup) -> Mission:
     o = setup.options
-    values = {**setup.section("explore"), **o.explore}
+    values = {**setup.section("explore_node"), **o.explore}
     if o.strategy is not None:
         values["strategy"] = o.strategy
     lidar = setup.stack.robot.sensors.lidar
     if math.isfinite(lidar.range_max):
         values.setdefault("sensor_range", lidar.range_max)
-    params = ExploreParams.from_mapping(values, file=setup.nav2_file, key_path="explore")
+    params = ExploreParams.from_mapping(values, file=setup.nav2_file,
+                                       key_path="explore_node")
     return explore_mission(setup.ctx, params, setup.circumscribed_radius)
 
 

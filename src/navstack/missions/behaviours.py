@@ -252,10 +252,12 @@ class ReturnHome(MissionBehaviour):
     has come no closer for ``settle_time`` [s], the goal is cancelled.  Within
     ``precise`` [m] that is success; otherwise the next attempt asks for the heading the
     robot arrives with (no final turn), and after the last attempt anything within
-    ``tolerance`` is success -- each logged with the reason."""
+    ``tolerance`` is success -- each logged with the reason.  A goal the navigator
+    reached (its goal checker passed) is success within ``tolerance``: the checker's own
+    tolerance may exceed ``precise`` by the localisation noise."""
 
     def __init__(self, ctx: MissionContext, key: str = "home", attempts: int = 3,
-                 tolerance: float = 0.3, settle_time: float = 5.0, precise: float = 0.15,
+                 tolerance: float = 0.3, settle_time: float = 5.0, precise: float = 0.2,
                  name: str = "ReturnHome") -> None:
         super().__init__(ctx, name)
         self.key = key
@@ -297,9 +299,12 @@ class ReturnHome(MissionBehaviour):
             self._best = (dist, now)
         return dist <= self.tolerance and now - self._best[1] >= self.settle_time
 
-    def _accept(self, dist: float) -> bool:
+    def _accept(self, dist: float, reached: bool) -> bool:
+        """A goal the navigator reached (its goal checker's tolerance, e.g. 0.15 m) counts
+        within ``tolerance``; an unfinished one within ``precise``, or ``tolerance`` on the
+        last attempt."""
         last = self.tries + 1 >= self.attempts
-        return dist <= (self.tolerance if last else self.precise)
+        return dist <= (self.tolerance if last or reached else self.precise)
 
     def update(self) -> Status:
         home = self._home()
@@ -317,7 +322,7 @@ class ReturnHome(MissionBehaviour):
             why = f"stopped {dist:.2f} m from home: no closer for {self.settle_time:.0f} s"
         elif status is Status.FAILURE and self.ctx.failures:
             why = self.ctx.failures[-1].reason
-        if self._accept(dist):
+        if self._accept(dist, status is Status.SUCCESS):
             del self.ctx.failures[self.failures_before:]  # earlier attempts' failures healed
             self.ctx.results[f"{self.key}_distance"] = dist
             note = f" (the navigator ended {why})" if why else ""

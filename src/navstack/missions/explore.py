@@ -13,7 +13,11 @@ grey when unreachable) and a SPHERE at its goal (green, larger for better).
 ``Escape`` handles a start against an obstacle (explore_lite's "starting facing a wall"):
 when an observed obstacle on ``map_topic`` is closer than the robot's turning radius
 (``circumscribed_radius``), turning in place would hit it, so the robot first backs away
-(or drives forward when the obstacle is behind it).
+(or drives forward when the obstacle is behind it).  ``Explore`` runs the same escape
+after a goal it gave up (stuck) or the navigator aborted, before the next goal: a robot
+wedged at a box corner -- its padded footprint on a lethal cell, so the controller
+refuses to move and the spin recovery cannot turn it -- otherwise stays there.  The
+mission escapes once more before returning home.
 
 :func:`explore_mission` is explore_lite's node: wait for the map, remember the start
 pose, escape, explore, and with ``return_to_init`` return to the start pose -- a checked
@@ -62,9 +66,14 @@ class Explore(MissionBehaviour):
     """Frontier exploration until no reachable frontier is left (module docstring)."""
 
     def __init__(self, ctx: MissionContext, params: ExploreParams | None = None,
-                 name: str = "Explore", map_timeout: float = 30.0) -> None:
+                 name: str = "Explore", map_timeout: float = 30.0,
+                 circumscribed_radius: float = 0.3) -> None:
         super().__init__(ctx, name)
         self.params = params or ExploreParams()
+        self.escape = Escape(ctx, circumscribed_radius, name=f"{name}: Escape")
+        self._escaping = False
+        self._pending: Decision | None = None
+        self.escapes = 0
         self.map_timeout = map_timeout
         self.explorer = FrontierExplorer(self.params)
         self.handle: GoalHandle[m.NavigateToPoseGoal] | None = None
@@ -78,6 +87,29 @@ class Explore(MissionBehaviour):
     def initialise(self) -> None:
         self._start = self.ctx.now
         self._next_plan = self.ctx.now
+        self._escaping = False
+        self._pending = None
+
+    def _begin_escape(self) -> None:
+        """Back away from a near obstacle before the next goal (module docstring)."""
+        self._escaping = True
+        self.escape.initialise()
+
+    def _escape_step(self) -> bool:
+        """Run the escape; True while it is still moving the robot.  An escape that
+        cannot clear the obstacle is logged, not a mission failure: the next goal (or
+        the blacklist) decides."""
+        before = len(self.ctx.failures)
+        status = self.escape.update()
+        if status is Status.RUNNING:
+            return True
+        if status is Status.FAILURE:
+            del self.ctx.failures[before:]
+            self.ctx.log(f"{self.name}: escape did not clear the obstacle; going on")
+        self._escaping = False
+        if self.escape.tries:
+            self.escapes += 1
+        return False
 
     # --- ticking ---------------------------------------------------------------------
     def update(self) -> Status:
@@ -91,6 +123,17 @@ class Explore(MissionBehaviour):
             ctx.feedback(f"{self.name}: waiting for {p.costmap_topic}")
             return Status.RUNNING
         ended = self._check_goal(now)
+        if self._escaping:
+            if self._escape_step():
+                return Status.RUNNING
+            self._next_plan = now  # plan at once from where the escape left the robot
+            pending, self._pending = self._pending, None
+            pose = ctx.robot_pose()
+            if pending is not None and pending.target is not None and pose is not None:
+                # the target chosen when the stuck goal was given up
+                self._send(pending, pose)
+                self._next_plan = now + 1.0 / p.planner_frequency
+                return Status.RUNNING
         if now < self._next_plan and not ended:
             return Status.RUNNING
         self._next_plan = now + 1.0 / p.planner_frequency
@@ -104,6 +147,10 @@ class Explore(MissionBehaviour):
         if decision.cancelled:
             ctx.log(f"{self.name}: gave up the goal: {decision.cancelled}")
             self._cancel_goal()
+            if decision.kind is not DecisionKind.DONE:
+                self._pending = decision if decision.kind is DecisionKind.SEND else None
+                self._begin_escape()
+                return Status.RUNNING
         if p.visualize and decision.frontiers is not None:
             self._publish_markers(decision, view)
         if decision.kind is DecisionKind.DONE:
@@ -128,6 +175,7 @@ class Explore(MissionBehaviour):
         self.explorer.goal_finished(status.value, h.result.error_msg, now)
         if status is GoalStatus.FAILED:
             self.ctx.log(f"{self.name}: goal failed: {h.result.error_msg}")
+            self._begin_escape()
         return True
 
     def _send(self, decision: Decision, pose: Pose2D) -> None:
@@ -156,6 +204,9 @@ class Explore(MissionBehaviour):
     def terminate(self, new_status: Status) -> None:
         if new_status is Status.INVALID:
             self._cancel_goal()
+            if self._escaping:
+                self.escape.terminate(Status.INVALID)
+                self._escaping = False
 
     # --- reporting -------------------------------------------------------------------
     def _feedback(self, d: Decision, view: GridView) -> None:
@@ -213,7 +264,7 @@ class Explore(MissionBehaviour):
             "strategy": self.params.strategy,
             "goals_sent": st.goals_sent, "goals_succeeded": st.goals_succeeded,
             "goals_failed": st.goals_failed, "blacklisted": st.blacklisted,
-            "retries": st.retries, "plans": st.plans,
+            "retries": st.retries, "plans": st.plans, "escapes": self.escapes,
             "done_reason": self.done_reason,
             "unreachable_frontiers": [
                 {"centroid": list(f.centroid), "size_m": f.size_m}
@@ -332,12 +383,13 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
                     home_tolerance: float = 0.3) -> Mission:
     """explore_lite as a mission (module docstring)."""
     p = params or ExploreParams()
-    explore = Explore(ctx, p)
+    explore = Explore(ctx, p, circumscribed_radius=circumscribed_radius)
     steps = [wait_for_map(ctx), RememberHome(ctx),
              Escape(ctx, circumscribed_radius),
              explore]
     if p.return_to_init:
-        steps.append(ReturnHome(ctx, tolerance=home_tolerance))
+        steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome"),
+                  ReturnHome(ctx, tolerance=home_tolerance)]
     root = Sequence("explore", memory=True, children=steps)
 
     def summary() -> dict[str, Any]:
