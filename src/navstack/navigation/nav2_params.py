@@ -87,8 +87,6 @@ OTHER_NODES: frozenset[str] = frozenset({
     "navsat_transform", "navsat_transform_node", "twist_mux", "teleop_twist_joy_node",
     "joy_node", "explore_node", "pointcloud_to_laserscan", "laser_filter",
     "scan_to_scan_filter_chain",
-    # navstack's mission sections (read by `navstack mission`, not by the servers)
-    "explore", "coverage",
 })
 """Nav2 and companion node names that are recognised and ignored (with a note)."""
 
