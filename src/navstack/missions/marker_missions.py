@@ -111,13 +111,15 @@ def marker_frame_mission(ctx: MarkerContext, marker_id: int, view: Pose2D,
     look = py_trees.composites.Selector("detect the marker", memory=True, children=[
         WaitFor(ctx, on_map, 1.0, f"marker {marker_id} on the map", name="already mapped"),
         SpinSearch(ctx, on_map, f"marker {marker_id}", name="look around")])
+    # in front of the marker for refine_time: more sightings for the marker map's filter
+    refine = WaitFor(ctx, lambda: ctx.now - refine.start >= refine_time, refine_time + 1.0,
+                     f"{refine_time:.0f} s of sightings", name="refine the frame")
     root = py_trees.composites.Sequence("marker-frame", memory=True, children=[
         RememberHome(ctx, HOME),
         NavigateToPose(ctx, view, name="go near the tagged obstacle"),
         look,
         ApproachMarker(ctx, marker_id, approach_distance, name="approach the marker"),
-        _go_on("refine the frame", WaitFor(ctx, lambda: False, refine_time,
-                                           "more sightings", name="refine")),
+        refine,
         return_home(ctx, [view])])
 
     def summary() -> dict[str, Any]:
