@@ -93,9 +93,13 @@ def mission(
              f"{report['duration_s']:.0f} s", f"{report['path_length_m']:.1f} m driven",
              f"{report['collisions']} collisions",
              f"home {report['home_distance_m']:.2f} m"]
-    if "observed_fraction" in report:
+    if "observed_fraction" in report and "completeness" not in report:
         parts.append(f"observed {100 * report['observed_fraction']:.1f} % "
                      f"(90 % at {report['time_to_90_s']:.0f} s)")
+    poses = report.get("map_poses", {}).get("poses", [])
+    if poses:
+        reached = sum(v["status"] == "REACHED" for v in poses)
+        parts.append(f"poses reached {reached}/{len(poses)}")
     if "cells_total" in report:
         parts.append(f"cells visited {report['cells_visited']}/{report['cells_total']}")
     if "completeness" in report:
