@@ -96,10 +96,11 @@ def mission(
     if "observed_fraction" in report and "completeness" not in report:
         parts.append(f"observed {100 * report['observed_fraction']:.1f} % "
                      f"(90 % at {report['time_to_90_s']:.0f} s)")
-    poses = report.get("map_poses", {}).get("poses", [])
-    if poses:
-        reached = sum(v["status"] == "REACHED" for v in poses)
-        parts.append(f"poses reached {reached}/{len(poses)}")
+    map_poses = report.get("map_poses")
+    visits = map_poses.get("poses", []) if isinstance(map_poses, dict) else []
+    if visits:
+        reached = sum(v["status"] == "REACHED" for v in visits)
+        parts.append(f"poses reached {reached}/{len(visits)}")
     if "cells_total" in report:
         parts.append(f"cells visited {report['cells_visited']}/{report['cells_total']}")
     if "completeness" in report:
