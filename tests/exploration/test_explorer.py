@@ -108,3 +108,25 @@ def test_progress_and_stuck_watchdogs_blacklist_the_goal() -> None:
     for k in range(1, 7):  # pacing up and down across the strip
         d = ex2.plan(view, (0.5, 0.3 + 0.2 * (k % 2) * 7, 0.0), 6.0 * k)
     assert d.cancelled.startswith("no progress toward it for 30 s (progress_timeout)")
+
+
+def test_information_gain_looks_ahead_to_the_next_target_near_its_goal() -> None:
+    """Within ``lookahead_distance`` of its goal the information-gain strategy sends the
+    next target (no stop at the viewpoint); the frontier it leaves is judged as reached."""
+    unknown = np.zeros((20, 40), bool)
+    unknown[:, :3] = True          # a frontier at x = 0.3 m ...
+    unknown[:, 37:] = True         # ... and one at x = 3.7 m
+    free = ~unknown
+    view = GridView(unknown, free, free.copy(), 0.1)
+    for ahead, expected in ((0.8, DecisionKind.SEND), (0.0, DecisionKind.KEEP)):
+        ex = FrontierExplorer(ExploreParams(strategy="information_gain",
+                                            lookahead_distance=ahead))
+        first = ex.plan(view, (2.6, 1.0, 0.0), 0.0)
+        assert first.kind is DecisionKind.SEND and first.target is not None
+        assert first.target.goal[0] > 3.0  # the near frontier, on the right
+        near = ex.plan(view, (first.target.goal[0] - 0.5, 1.0, 0.0), 1.0)
+        assert near.kind is expected
+        if ahead:
+            assert near.reason == "look-ahead" and near.target is not None
+            assert near.target.goal[0] < 1.0  # on to the left frontier
+            assert len(ex._arrivals) == 1  # the right one is judged like a reached goal

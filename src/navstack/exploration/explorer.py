@@ -158,6 +158,10 @@ class FrontierExplorer:
             else:
                 keep = not self.strategy.better(best.score, current.score,
                                                 p.retarget_hysteresis)
+                ahead = self._look_ahead(ranked, current, now) if keep else None
+                if ahead is not None:
+                    self._start(ahead, view, robot, now)
+                    return Decision(DecisionKind.SEND, ahead, "look-ahead", fs, cancelled)
             if keep:
                 old_goal = self._pursuit.target.goal
                 self._pursuit.target = current
@@ -172,6 +176,20 @@ class FrontierExplorer:
                 return Decision(DecisionKind.KEEP, current, "", fs, cancelled)
         self._start(best, view, robot, now)
         return Decision(DecisionKind.SEND, best, "new target", fs, cancelled)
+
+    def _look_ahead(self, ranked: list[Target], current: Target, now: float
+                    ) -> Target | None:
+        """The next target when the robot is within ``lookahead_distance`` of the
+        current goal (params); the current one is then judged like a reached goal."""
+        p = self.params
+        if p.lookahead_distance <= 0.0 or current.distance > p.lookahead_distance:
+            return None
+        others = [t for t in ranked if t.frontier.label != current.frontier.label]
+        if not others or self._pursuit is None:
+            return None
+        self._arrivals.append(_Arrival(self._pursuit.points, self._pursuit.target.goal, now))
+        self._pursuit = None
+        return others[0]
 
     def goal_finished(self, status: str, reason: str, now: float) -> None:
         """The navigator ended the goal: ``status`` SUCCEEDED / FAILED / CANCELED."""

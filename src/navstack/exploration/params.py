@@ -80,3 +80,8 @@ class ExploreParams(Params):
     """Candidate viewpoints along a frontier, one per this many metres."""
     retarget_hysteresis: float = Field(0.25, ge=0.0)
     """The current target is kept unless another scores this fraction better."""
+    lookahead_distance: float = Field(0.8, ge=0.0)
+    """Information gain: once the robot is this close [m, path] to its goal, the next
+    target is sent -- the robot moves on instead of slowing to a stop at every viewpoint
+    (the controller slows down near a goal); the target it leaves is judged like a
+    reached one.  0 turns the look-ahead off."""

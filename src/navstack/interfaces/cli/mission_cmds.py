@@ -93,9 +93,14 @@ def mission(
              f"{report['duration_s']:.0f} s", f"{report['path_length_m']:.1f} m driven",
              f"{report['collisions']} collisions",
              f"home {report['home_distance_m']:.2f} m"]
-    if "observed_fraction" in report:
+    if "observed_fraction" in report and "completeness" not in report:
         parts.append(f"observed {100 * report['observed_fraction']:.1f} % "
                      f"(90 % at {report['time_to_90_s']:.0f} s)")
+    map_poses = report.get("map_poses")
+    visits = map_poses.get("poses", []) if isinstance(map_poses, dict) else []
+    if visits:
+        reached = sum(v["status"] == "REACHED" for v in visits)
+        parts.append(f"poses reached {reached}/{len(visits)}")
     if "cells_total" in report:
         parts.append(f"cells visited {report['cells_visited']}/{report['cells_total']}")
     if "completeness" in report:
