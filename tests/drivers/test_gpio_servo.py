@@ -3,9 +3,7 @@ and timing, the "OK" reply, and clear errors for a bad pin or duty."""
 
 from __future__ import annotations
 
-import itertools
 import math
-import time
 
 import pytest
 
@@ -21,40 +19,52 @@ def _servo(**kw: object) -> GpioServo:
     return servo
 
 
-def _close_ramp_timing(servo: GpioServo) -> list[float]:
-    """Close from open on the mock pin; the sequence must be exact; returns each step's
-    deviation [s] from its slot (k - 1) x 0.1 s, and the reply's from 2.0 s, last."""
-    servo.command(20, 2.0)
-    pin = servo.factory.pin(20)
-    t0 = time.monotonic()
-    assert servo.command(20, 7.0) == "OK"
-    elapsed = time.monotonic() - t0
-    # a mock pin records each change with the time since the previous one
-    times = list(itertools.accumulate(s.timestamp for s in pin.states))
-    values = [s.state for s in pin.states]
-    assert [round(v * 100, 4) for v in values[-20:]] == [round(2.0 + 0.25 * k, 4)
-                                                         for k in range(1, 21)]
-    assert values[-21] == pytest.approx(0.02)  # started open
-    first = times[-20]
-    return [t - first - 0.1 * k for k, t in enumerate(times[-20:])] + [elapsed - 2.0]
+class FakeClock:
+    """A clock that advances only by sleeping (the ramp's schedule without OS jitter)."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, dt: float) -> None:
+        self.t += max(dt, 1e-6)
 
 
 def test_close_ramp_is_the_course_sequence_with_its_timing() -> None:
-    servo = _servo()
-    assert servo.factory.pin(20).frequency == 50
-    # real time on a shared machine: a run in which the OS deschedules the process for
-    # more than 10 ms is repeated (up to 3 runs); the duty sequence is checked every run
-    for _ in range(3):
-        errors = _close_ramp_timing(servo)
-        if max(abs(e) for e in errors[:-1]) <= 0.010 and abs(errors[-1]) <= 0.03:
-            break
-    assert max(abs(e) for e in errors[:-1]) <= 0.010, errors
-    assert abs(errors[-1]) <= 0.03  # the reply once the servo is there (after 2.0 s)
+    clock = FakeClock()
+    servo = GpioServo(ServoParams(pin_factory="mock"), sleep=clock.sleep, clock=clock)
+    servo.open()
+    pin = servo.factory.pin(20)
+    assert pin.frequency == 50
+    t0 = clock()
+    assert servo.command(20, 7.0) == "OK"
+    # the mock pin holds the duties written, the driver the time it wrote each
+    values = [round(s.state * 100, 4) for s in pin.states]
+    assert values[-21:] == [2.0] + [round(2.0 + 0.25 * k, 4) for k in range(1, 21)]
+    steps = servo.writes[-20:]
+    assert [d for _, d in steps] == [2.0 + 0.25 * k for k in range(1, 21)]
+    for k, (t, _) in enumerate(steps):  # step k+1 at k x 0.1 s, within the 3 ms poll
+        assert t - t0 == pytest.approx(0.1 * k, abs=0.003)
+    assert clock() - t0 == pytest.approx(2.0, abs=0.003)  # "OK" one period after the last
     # opening releases at once, one write
-    t0 = time.monotonic()
+    before = clock()
     assert servo.command(20, 2.0) == "OK"
-    assert time.monotonic() - t0 < 0.05
-    assert servo.factory.pin(20).states[-1].state == pytest.approx(0.02)
+    assert clock() - before < 0.01
+    assert pin.states[-1].state == pytest.approx(0.02)
+
+
+def test_close_ramp_on_the_mock_pin_in_real_time() -> None:
+    # the real-time deadlines (within 10 ms) are `navstack bench gripper`'s: a loaded
+    # machine deschedules the process; here what load cannot change -- the exact
+    # sequence on the mock pin, no step before its slot, the reply not before 2.0 s
+    from navstack.benchmarks.gripper import ramp_once
+
+    servo = _servo()
+    exact, errors, reply = ramp_once(servo)
+    assert exact
+    assert min(errors) >= -0.003 and reply >= -0.003
 
 
 def test_ramp_steps_from_any_duty() -> None:

@@ -28,6 +28,7 @@ SUITE_MODULES: dict[str, str] = {
     "aruco": "navstack.benchmarks.aruco",
     "marker-frame": "navstack.benchmarks.marker_frame",
     "retrieval": "navstack.benchmarks.retrieval",
+    "gripper": "navstack.benchmarks.gripper",
     "exploration": "navstack.benchmarks.exploration",
     "link": "navstack.benchmarks.link",
     "safety": "navstack.benchmarks.safety",
