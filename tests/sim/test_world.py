@@ -193,7 +193,8 @@ def test_unknown_world_name() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_world("ofice")
     assert str(err.value) == ("unknown world 'ofice' (did you mean 'office'?); known: "
-                              "campus, mars_yard, maze, office, warehouse")
+                              "arena, campus, explore_dead_end, explore_facing_wall, "
+                              "explore_narrow_door, mars_yard, maze, office, warehouse")
     with pytest.raises(ConfigError) as cerr:
         load_world("no/such/world.yaml")
     assert str(cerr.value) == ("no/such/world.yaml: world file not found (check the path or "
@@ -210,10 +211,12 @@ def test_primitives_file_by_path(tmp_path: Path) -> None:
 
 # --- built-in worlds ----------------------------------------------------------------
 BUILTIN = ["campus", "mars_yard", "maze", "office", "warehouse"]
+MISSION_WORLDS = ["arena", "explore_dead_end", "explore_facing_wall", "explore_narrow_door"]
+"""Worlds of the mission issue (tests/sim/test_mission_worlds.py checks them)."""
 
 
 def test_catalogue() -> None:
-    assert list_worlds() == BUILTIN
+    assert list_worlds() == sorted(BUILTIN + MISSION_WORLDS)
     assert world_path("office").name == "office.yaml"
     assert load_world("maze").source == world_path("maze")
 
