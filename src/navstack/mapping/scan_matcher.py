@@ -36,7 +36,8 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan"]
+__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan",
+           "smeared_grid"]
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,26 @@ def _distinct_cells(cells: NDArray[np.int64], height: int, width: int,
     keep = (rows >= 0) & (rows < span_r) & (cols >= 0) & (cols < span_c)
     flat = np.unique(rows[keep] * span_c + cols[keep])
     return np.column_stack([flat // span_c - reach, flat % span_c - reach])
+
+
+def smeared_grid(points: FloatArray, resolution: float, smear_deviation: float,
+                 bounds: tuple[float, float, float, float]
+                 ) -> tuple[NDArray[np.float32], FloatArray]:
+    """The likelihood raster alone (no bound grid): ``(grid, origin)`` with ``grid[row,
+    col]`` the max over ``points`` of a Gaussian of ``smear_deviation`` at the cell
+    centre ``origin + (col, row) * resolution``, covering ``bounds`` (xmin, ymin, xmax,
+    ymax)."""
+    xmin, ymin, xmax, ymax = bounds
+    origin = np.array([xmin, ymin], dtype=np.float64)
+    width = math.ceil((xmax - xmin) / resolution) + 1
+    height = math.ceil((ymax - ymin) / resolution) + 1
+    grid = np.zeros((height, width), np.float32)
+    radius = max(1, math.ceil(3.0 * smear_deviation / resolution))
+    idx = np.rint((np.asarray(points, float) - origin) / resolution)
+    cells = _distinct_cells(idx[:, ::-1].astype(np.int64), height, width, radius)
+    kernel, low = _smear_kernel(radius, resolution, smear_deviation, 1)
+    _stamp(grid, cells, kernel, low)
+    return grid, origin
 
 
 class LikelihoodGrid:
