@@ -162,20 +162,22 @@ def wide_match(grids: PrecomputedGrids, points: FloatArray, center: FloatArray,
     center = np.asarray(center, dtype=np.float64)
     res = grids.resolution
     step = window.angle_step or _angle_step(pts, res)
+    offsets: FloatArray
     if window.half_angle >= math.pi:
         count = max(1, math.ceil(2 * math.pi / step))
         offsets = np.arange(count) * (2 * math.pi / count) - math.pi
     else:
         n = math.ceil(window.half_angle / step)
         offsets = np.arange(-n, n + 1) * step
+    offsets = offsets.astype(np.float64)
     angles = center[2] + offsets
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     world = np.stack((c * pts[:, 0] - s * pts[:, 1] + center[0],
                       s * pts[:, 0] + c * pts[:, 1] + center[1]), axis=-1)
     rows, cols = grids.cells(world)
     var_a, min_a = angle_penalty
-    pen = (np.ones(angles.size) if math.isinf(var_a)
-           else np.maximum(1.0 - 0.2 * offsets * offsets / var_a, min_a))
+    pen: FloatArray = (np.ones(angles.size) if math.isinf(var_a)
+                       else np.maximum(1.0 - 0.2 * offsets * offsets / var_a, min_a))
     ex = np.full(8, -1.0)
     if exclusion is not None:
         ex[:] = ((exclusion.center[0] - center[0]) / res, (exclusion.center[1] - center[1]) / res,

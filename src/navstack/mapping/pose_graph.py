@@ -390,7 +390,7 @@ class PoseGraph:
         if not self._stale or self._isam is None:
             return
         estimate = self._isam.calculateEstimate()
-        for key in self._values:
+        for key in self._values.keys():  # noqa: SIM118 (gtsam Values is not iterable)
             if not estimate.exists(key):
                 estimate.insert(key, self._values.atPose2(key))
         self._values = estimate
