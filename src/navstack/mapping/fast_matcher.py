@@ -162,14 +162,12 @@ def wide_match(grids: PrecomputedGrids, points: FloatArray, center: FloatArray,
     center = np.asarray(center, dtype=np.float64)
     res = grids.resolution
     step = window.angle_step or _angle_step(pts, res)
-    offsets: FloatArray
     if window.half_angle >= math.pi:
         count = max(1, math.ceil(2 * math.pi / step))
-        offsets = np.arange(count) * (2 * math.pi / count) - math.pi
+        offsets = np.arange(count, dtype=np.float64) * (2 * math.pi / count) - math.pi
     else:
         n = math.ceil(window.half_angle / step)
-        offsets = np.arange(-n, n + 1) * step
-    offsets = offsets.astype(np.float64)
+        offsets = np.arange(-n, n + 1, dtype=np.float64) * step
     angles = center[2] + offsets
     c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
     world = np.stack((c * pts[:, 0] - s * pts[:, 1] + center[0],
