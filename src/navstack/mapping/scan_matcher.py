@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 __all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan",
-           "smeared_grid"]
+           "response_covariance", "smeared_grid"]
 
 
 @dataclass(frozen=True)
@@ -57,11 +57,13 @@ class SearchWindow:
 
 @dataclass(frozen=True)
 class MatchResult:
-    """Best pose found, its response (mean likelihood, 0..1) and 3x3 covariance."""
+    """Best pose found, its response (mean likelihood, 0..1), 3x3 covariance and the
+    Gauss-Newton Hessian ``J^T J`` of the fit there (``None`` when not computed)."""
 
     pose: FloatArray
     response: float
     covariance: FloatArray
+    hessian: FloatArray | None = None
 
 
 # --- likelihood grid ------------------------------------------------------------------
@@ -162,9 +164,14 @@ class LikelihoodGrid:
     @classmethod
     def around(cls, reference: FloatArray, query_world: FloatArray, margin: float,
                resolution: float, smear_deviation: float, block: int = 4) -> LikelihoodGrid:
-        """A grid covering the query points (at any searched pose) plus ``margin``."""
-        lo = query_world.min(axis=0) - margin
-        hi = query_world.max(axis=0) + margin
+        """A grid covering the query points (at any searched pose) plus ``margin``,
+        cropped to where the reference can leave a mark (its extent plus the smear
+        kernel and one bound block): outside that every cell is zero anyway, so the
+        scores are the same and a small local map costs a small grid."""
+        reach = 3.0 * smear_deviation + (block + 1) * resolution
+        lo = np.maximum(query_world.min(axis=0) - margin, reference.min(axis=0) - reach)
+        hi = np.minimum(query_world.max(axis=0) + margin, reference.max(axis=0) + reach)
+        hi = np.maximum(hi, lo + resolution)
         return cls(reference, resolution, smear_deviation, (lo[0], lo[1], hi[0], hi[1]), block)
 
     def cells_of(self, points: FloatArray) -> NDArray[np.int64]:
@@ -388,7 +395,8 @@ def match_scan(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
             pose = refined
     mean_here, H = _response_and_hessian(grid, local, pose)
     pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
-    return MatchResult(pose=pose, response=mean_here, covariance=_covariance(H, mean_here, res))
+    return MatchResult(pose=pose, response=mean_here, covariance=_covariance(H, mean_here, res),
+                       hessian=H)
 
 
 def ambiguity(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
@@ -405,6 +413,73 @@ def ambiguity(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
     *_, other = _search_angles(grid, local, guess, angles, half_cells, window,
                                (float(best[0]), float(best[1]), exclusion))
     return float(other / best_score) if best_score > 0 else 1.0
+
+
+def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArray,
+                        window: SearchWindow, drop: float = 0.1) -> FloatArray:
+    """Covariance of a match from the shape of its response surface (Karto's
+    ``ComputePositionalCovariance`` / ``ComputeAngularCovariance``; Olson 2009, sec. IV).
+
+    Over the window's translations at the matched angle, and over the fine angles of one
+    coarse step either side at the matched translation, every pose whose response is
+    within ``drop`` of the best counts, weighted by its response; the covariance is the
+    weighted second moment of their offsets from the match (x, y, theta; no cross terms
+    between translation and angle).  A corridor or an open hall -- responses as good
+    all along one direction -- gives a long covariance there, a unique fit a short one
+    (at most one cell and one fine step wide, the floor is left to the caller)."""
+    res = grid.resolution
+    half = max(1, round(0.5 * window.dimension / res))
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    cells = grid.cells_of(_rotated(local, pose[2]) + pose[:2])
+    del c, s
+    xy = _translation_moments(grid.fine, cells[:, 0].copy(), cells[:, 1].copy(), half,
+                              drop * local.shape[0])
+    n = max(1, round(window.coarse_angle_resolution / window.fine_angle_resolution))
+    offsets = window.fine_angle_resolution * np.arange(-n, n + 1)
+    scores = np.empty(offsets.size)
+    for k, d in enumerate(offsets):
+        cl = grid.cells_of(_rotated(local, pose[2] + d) + pose[:2])
+        scores[k] = _sum_under(grid.fine, cl[:, 0].copy(), cl[:, 1].copy(), 0, 0)
+    keep = scores >= scores.max() - drop * local.shape[0]
+    w = scores[keep]
+    var_th = float((w * offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = xy * res * res
+    cov[2, 2] = var_th
+    return cov
+
+
+@numba.njit(cache=True)
+def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
+                         cols: NDArray[np.int64], half: int, drop: float
+                         ) -> NDArray[np.float64]:
+    """Weighted second moments (cells^2) of the offsets whose summed score is within
+    ``drop`` of the best over ``[-half, half]^2``."""
+    size = 2 * half + 1
+    scores = np.empty((size, size))
+    best = -1.0
+    for i in range(size):
+        for j in range(size):
+            v = _sum_under(fine, rows, cols, i - half, j - half)
+            scores[i, j] = v
+            if v > best:
+                best = v
+    out = np.zeros((2, 2))
+    norm = 0.0
+    for i in range(size):
+        for j in range(size):
+            v = scores[i, j]
+            if v >= best - drop:
+                dy = i - half
+                dx = j - half
+                norm += v
+                out[0, 0] += v * dx * dx
+                out[0, 1] += v * dx * dy
+                out[1, 1] += v * dy * dy
+    if norm > 0:
+        out /= norm
+    out[1, 0] = out[0, 1]
+    return out
 
 
 def _response_and_hessian(grid: LikelihoodGrid, local: FloatArray,
