@@ -35,8 +35,8 @@ from navstack.mapping.scan_matcher import smeared_grid
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["Exclusion", "PrecomputedGrids", "WideMatch", "WideWindow", "voxel_filter",
-           "wide_match"]
+__all__ = ["Exclusion", "PrecomputedGrids", "WideMatch", "WideWindow", "angle_step",
+           "surface_covariance", "voxel_filter", "wide_match"]
 
 
 class PrecomputedGrids:
@@ -140,8 +140,11 @@ def voxel_filter(points: FloatArray, size: float) -> FloatArray:
     return points[np.sort(first)]
 
 
-def _angle_step(points: FloatArray, resolution: float) -> float:
-    reach = float(np.percentile(np.hypot(points[:, 0], points[:, 1]), 95))
+def angle_step(points: FloatArray, resolution: float) -> float:
+    """Angular step [rad] that moves the 95th-percentile point by one ``resolution``."""
+    r = np.hypot(points[:, 0], points[:, 1])
+    k = min(r.size - 1, int(0.95 * r.size))
+    reach = float(np.partition(r, k)[k]) if r.size else resolution
     return max(resolution / max(reach, resolution), 1e-3)
 
 
@@ -161,7 +164,7 @@ def wide_match(grids: PrecomputedGrids, points: FloatArray, center: FloatArray,
         return None
     center = np.asarray(center, dtype=np.float64)
     res = grids.resolution
-    step = window.angle_step or _angle_step(pts, res)
+    step = window.angle_step or angle_step(pts, res)
     if window.half_angle >= math.pi:
         count = max(1, math.ceil(2 * math.pi / step))
         offsets = np.arange(count, dtype=np.float64) * (2 * math.pi / count) - math.pi
@@ -314,3 +317,64 @@ def _search(levels: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np
                     sp += 1
                 ch_s[worst] = np.inf
     return best_a, best_r, best_c, best, leaves
+
+
+def surface_covariance(grids: PrecomputedGrids, points: FloatArray, pose: FloatArray,
+                       half: float, half_angle: float, drop: float = 0.1
+                       ) -> tuple[FloatArray, float]:
+    """Response-surface covariance of ``points`` at ``pose`` on the level-0 grid (as
+    :func:`navstack.mapping.scan_matcher.response_covariance`: every translation within
+    ``half`` [m] and angle within ``half_angle`` whose response is within ``drop`` of the
+    best counts, weighted by its response) and the response at ``pose``."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    res = grids.resolution
+    step = angle_step(pts, res)
+    n = max(1, math.ceil(half_angle / step))
+    offsets = np.arange(-n, n + 1, dtype=np.float64) * step
+    angles = pose[2] + offsets
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    world = np.stack((c * pts[:, 0] - s * pts[:, 1] + pose[0],
+                      s * pts[:, 0] + c * pts[:, 1] + pose[1]), axis=-1)
+    rows, cols = grids.cells(world)
+    half_cells = max(1, math.ceil(half / res))
+    xy, at_pose = _level_moments(grids.levels[0], rows[n], cols[n], half_cells,
+                                 drop * 255.0 * pts.shape[0])
+    sums = np.array([_sum_level(grids.levels[0], rows[a], cols[a], 0, 0)
+                     for a in range(offsets.size)])
+    keep = sums >= sums.max() - drop * 255.0 * pts.shape[0]
+    w = sums[keep]
+    var_th = float((w * offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = xy * res * res
+    cov[2, 2] = var_th
+    return cov, at_pose / (255.0 * pts.shape[0])
+
+
+@numba.njit(cache=True)
+def _level_moments(level: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np.int32],
+                   half: int, drop: float) -> tuple[NDArray[np.float64], float]:
+    size = 2 * half + 1
+    scores = np.empty((size, size))
+    best = -1.0
+    for i in range(size):
+        for j in range(size):
+            v = _sum_level(level, rows, cols, i - half, j - half)
+            scores[i, j] = v
+            if v > best:
+                best = v
+    out = np.zeros((2, 2))
+    norm = 0.0
+    for i in range(size):
+        for j in range(size):
+            v = scores[i, j]
+            if v >= best - drop:
+                dy = i - half
+                dx = j - half
+                norm += v
+                out[0, 0] += v * dx * dx
+                out[0, 1] += v * dx * dy
+                out[1, 1] += v * dy * dy
+    if norm > 0:
+        out /= norm
+    out[1, 0] = out[0, 1]
+    return out, scores[half, half]

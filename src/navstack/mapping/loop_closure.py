@@ -38,7 +38,7 @@ bound and, after the optimiser took the closure in, the chi-square test of its r
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -48,9 +48,12 @@ from navstack.mapping.fast_matcher import (
     Exclusion,
     PrecomputedGrids,
     WideWindow,
+    angle_step,
+    surface_covariance,
     voxel_filter,
     wide_match,
 )
+from navstack.mapping.icp import refine_point_to_line
 from navstack.mapping.submaps import Submap, Submaps
 
 if TYPE_CHECKING:
@@ -123,6 +126,7 @@ class LoopCloser:
                                p.loop_search_space_smear_deviation)
         self._pending: list[LoopClosure] = []
         self._recent: list[LoopClosure] = []
+        self._tried_at: dict[int, int] = {}    # submap index -> last node matched to it
 
     # --- confirmation --------------------------------------------------------------------
     def confirm(self, found: list[LoopClosure], node_id: int,
@@ -193,10 +197,15 @@ class LoopCloser:
             if sm not in by_submap or score < by_submap[sm][0]:
                 by_submap[sm] = (score, int(idx))
         chain_submaps = {self.submaps.of_node(i) for i in range(chain_start, node_id + 1)}
+        # a submap matched a few nodes ago (closed or not) is not tried again yet: the
+        # view has barely changed, and a revisit yields a closure every few nodes anyway
+        spacing = p.loop_search_node_interval
         ranked = sorted((v[0], sm) for sm, v in by_submap.items()
-                        if sm < len(complete) and sm not in chain_submaps)
+                        if sm < len(complete) and sm not in chain_submaps
+                        and node_id - self._tried_at.get(sm, -spacing) >= spacing)
         out = []
         for score, sm in ranked[: p.loop_search_maximum_candidates]:
+            self._tried_at[sm] = node_id
             submap = complete[sm]
             out.append(self._candidate(submap, cur, current_cov, poses, covs, score))
         return out
@@ -232,9 +241,14 @@ class LoopCloser:
         stats = m.stats
         stats.loop_attempts += 1
         drawn = self.submaps.points(candidate.submap, poses, m.nodes)
-        grids = self.submaps.grids(candidate.submap, drawn)
-        query = voxel_filter(m.nodes[node_id].points, p.loop_search_space_resolution)
         window = candidate.window
+        points = m.nodes[node_id].points
+        # a wide window is searched on a coarser raster first (the submap's coarse grids)
+        coarse = max(window.half_x, window.half_y) > 8.0 * self.submaps.resolution \
+            or window.half_angle > 0.35
+        grids = self.submaps.grids(candidate.submap, drawn, coarse=coarse)
+        query = voxel_filter(points, grids.resolution)
+        window = replace(window, angle_step=angle_step(query, grids.resolution))
         best = wide_match(grids, query, candidate.guess, window,
                           min_score=p.loop_match_minimum_response_coarse)
         if best is None:
@@ -246,34 +260,56 @@ class LoopCloser:
                                                p.loop_match_ambiguity_distance,
                                                p.loop_match_ambiguity_distance, 0.0, math.pi))
         if rival is not None:
-            corridor = self._corridor(grids, query, candidate, best.pose, best.score,
-                                      rival.pose) if p.loop_match_corridor_closures else None
+            corridor = self._corridor(grids, query, candidate.guess, window, best.pose,
+                                      best.score, rival.pose) \
+                if p.loop_match_corridor_closures else None
             if corridor is None:
                 stats.loop_ambiguous += 1
                 return None
-        fine = m.match_points(drawn.points, drawn.normals, drawn.line_like,
-                              m.nodes[node_id].points, best.pose)
-        if fine is None or fine.response < p.loop_match_minimum_response_fine:
+        if coarse:
+            # refine on the fine grids within two coarse cells and angle steps
+            fine_grids = self.submaps.grids(candidate.submap, drawn)
+            step = 2.0 * grids.resolution
+            refined = wide_match(fine_grids, voxel_filter(points, fine_grids.resolution),
+                                 best.pose, WideWindow(step, step, 0.05),
+                                 min_score=p.loop_match_minimum_response_coarse)
+            if refined is None:
+                return None
+            best = refined
+        # polish against the submap's own points (point-to-line ICP) and judge the fit on
+        # the fine grids: no new raster per attempt
+        fine_grids = self.submaps.grids(candidate.submap, drawn)
+        pose = best.pose
+        polished, used = refine_point_to_line(drawn.points, drawn.normals, drawn.line_like,
+                                              points, pose)
+        if used and math.hypot(*(polished[:2] - pose[:2])) <= 2.0 * fine_grids.resolution:
+            pose = polished
+        surface, response = surface_covariance(fine_grids, voxel_filter(points,
+                                                                        fine_grids.resolution),
+                                               pose, 0.5 * p.correlation_search_space_dimension,
+                                               p.coarse_angle_resolution)
+        if response < p.loop_match_minimum_response_fine:
             return None
-        cov = fine.covariance
+        unit = m.match_unit()
+        cov = surface + np.diag(unit * unit)
         if corridor is not None:
             # free along the corridor: a variance of the window's extent along it
             along = max(window.half_x, window.half_y) ** 2
-            cov = cov.copy()
             cov[:2, :2] += along * np.outer(corridor, corridor)
             stats.loop_corridor += 1
         elif max(cov[0, 0], cov[1, 1]) > p.loop_match_maximum_variance_coarse:
             return None
         anchor = candidate.submap.anchor
-        measured = fine.pose.copy()
+        measured = pose.copy()
         if not self._plausible_drift(anchor, node_id, measured, poses):
             stats.loop_implausible += 1
             return None
         return LoopClosure(anchor, node_id, measured, tangent_covariance(cov, measured[2]),
-                           fine.response, corridor is not None)
+                           response, corridor is not None)
 
-    def _corridor(self, grids: PrecomputedGrids, query: FloatArray, candidate: LoopCandidate,
-                  best: FloatArray, score: float, rival: FloatArray) -> FloatArray | None:
+    def _corridor(self, grids: PrecomputedGrids, query: FloatArray, guess: FloatArray,
+                  window: WideWindow, best: FloatArray, score: float,
+                  rival: FloatArray) -> FloatArray | None:
         """Unit direction of the corridor if every strong rival of ``best`` lies on the
         line from ``best`` through ``rival`` at ``best``'s heading, else ``None``."""
         p = self.mapper.params
@@ -281,8 +317,7 @@ class LoopCloser:
             return None
         u = rival[:2] - best[:2]
         u = u / max(float(np.hypot(u[0], u[1])), 1e-9)
-        window = candidate.window
-        other = wide_match(grids, query, candidate.guess, window,
+        other = wide_match(grids, query, guess, window,
                            min_score=score * p.loop_match_maximum_ambiguity,
                            exclusion=Exclusion((best[0], best[1]), (float(u[0]), float(u[1])),
                                                4.0 * max(window.half_x, window.half_y),

@@ -333,9 +333,16 @@ def _gauss_newton(grid: NDArray[np.float32], local: NDArray[np.float64], ox: flo
     return p, mean, H
 
 
-def _rotated(local: FloatArray, theta: float) -> FloatArray:
-    c, s = math.cos(theta), math.sin(theta)
-    return local @ np.array([[c, s], [-s, c]])
+def _cells_at_angles(grid: LikelihoodGrid, local: FloatArray, xy: FloatArray,
+                     angles: FloatArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(A, N)`` rows and columns of the points rotated by each angle, shifted by xy."""
+    c = np.cos(angles)[:, None]
+    s = np.sin(angles)[:, None]
+    wx = c * local[:, 0] - s * local[:, 1] + xy[0]
+    wy = s * local[:, 0] + c * local[:, 1] + xy[1]
+    cols = np.rint((wx - grid.origin[0]) / grid.resolution).astype(np.int64)
+    rows = np.rint((wy - grid.origin[1]) / grid.resolution).astype(np.int64)
+    return rows, cols
 
 
 def _angle_penalty(dtheta: FloatArray, variance: float, minimum: float) -> FloatArray:
@@ -348,13 +355,7 @@ def _search_angles(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
                    exclude: tuple[float, float, float] | None = None,
                    ) -> tuple[float, float, float, float]:
     """Branch-and-bound translation search over the given absolute angles."""
-    A = angles.size
-    rows = np.empty((A, local.shape[0]), np.int64)
-    cols = np.empty((A, local.shape[0]), np.int64)
-    for a, th in enumerate(angles):
-        cells = grid.cells_of(_rotated(local, th) + guess[:2])
-        rows[a] = cells[:, 0]
-        cols[a] = cells[:, 1]
+    rows, cols = _cells_at_angles(grid, local, guess[:2], angles)
     pen = _angle_penalty(angles - guess[2], window.angle_variance_penalty,
                          window.minimum_angle_penalty)
     ex_r = ex_c = 0
@@ -429,17 +430,11 @@ def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArra
     (at most one cell and one fine step wide, the floor is left to the caller)."""
     res = grid.resolution
     half = max(1, round(0.5 * window.dimension / res))
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    cells = grid.cells_of(_rotated(local, pose[2]) + pose[:2])
-    del c, s
-    xy = _translation_moments(grid.fine, cells[:, 0].copy(), cells[:, 1].copy(), half,
-                              drop * local.shape[0])
     n = max(1, round(window.coarse_angle_resolution / window.fine_angle_resolution))
     offsets = window.fine_angle_resolution * np.arange(-n, n + 1)
-    scores = np.empty(offsets.size)
-    for k, d in enumerate(offsets):
-        cl = grid.cells_of(_rotated(local, pose[2] + d) + pose[:2])
-        scores[k] = _sum_under(grid.fine, cl[:, 0].copy(), cl[:, 1].copy(), 0, 0)
+    rows, cols = _cells_at_angles(grid, local, pose[:2], pose[2] + offsets)
+    xy = _translation_moments(grid.fine, rows[n], cols[n], half, drop * local.shape[0])
+    scores = _sums_at_rows(grid.fine, rows, cols)
     keep = scores >= scores.max() - drop * local.shape[0]
     w = scores[keep]
     var_th = float((w * offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
@@ -447,6 +442,15 @@ def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArra
     cov[:2, :2] = xy * res * res
     cov[2, 2] = var_th
     return cov
+
+
+@numba.njit(cache=True)
+def _sums_at_rows(fine: NDArray[np.float32], rows: NDArray[np.int64],
+                  cols: NDArray[np.int64]) -> NDArray[np.float64]:
+    out = np.empty(rows.shape[0])
+    for a in range(rows.shape[0]):
+        out[a] = _sum_under(fine, rows[a], cols[a], 0, 0)
+    return out
 
 
 @numba.njit(cache=True)

@@ -382,8 +382,9 @@ class SlamMapper:
         return MatchResult(pose=pose, response=match.response, hessian=match.hessian,
                            covariance=self._link_covariance(grid, points, match, win))
 
-    def _unit(self) -> FloatArray:
-        """Standard deviations of a perfectly constrained match (x, y, theta)."""
+    def match_unit(self) -> FloatArray:
+        """Standard deviations of a perfectly constrained match (x, y, theta): one
+        search cell and two fine angle steps."""
         p = self.params
         return np.array([p.correlation_search_space_resolution] * 2
                         + [2.0 * p.fine_search_angle_offset])
@@ -399,7 +400,7 @@ class SlamMapper:
         it misses flat directions that a door frame makes look curved; the response
         surface sees a corridor or an open hall as what it is, so that the odometry and
         the loop closures decide the directions a scan leaves open."""
-        unit = self._unit()
+        unit = self.match_unit()
         return (response_covariance(grid, points, match.pose, window)
                 + np.diag(unit * unit))
 
@@ -468,7 +469,7 @@ class SlamMapper:
             step = se2_between(prev_odom, odom)
             self._odometry_noise.observe(step, se2_between(self._poses[prev_id], pose))
             odo_cov = self._odometry_noise.covariance(step)
-            if self._odometry_noise.calibrated and _degenerate(cov, self._unit()) and float(
+            if self._odometry_noise.calibrated and _degenerate(cov, self.match_unit()) and float(
                     np.max(np.linalg.eigvals(
                     cov @ np.linalg.inv(odo_cov)).real)) >= 0.1:
                 # the odometry as its own constraint where the scan match is degenerate
@@ -524,7 +525,6 @@ class SlamMapper:
                                      robust_kernel=p.loop_closure_robust_kernel,
                                      kernel=p.loop_closure_robust_kernel_type)
                  for c in closures]
-        self.graph.update()
         self.graph.update()
         rejected = [k for k in edges if self.graph.edge_chi2(k) > p.loop_closure_maximum_chi2]
         for k in rejected:

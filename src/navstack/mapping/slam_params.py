@@ -85,7 +85,7 @@ class SlamParams(Params):
     correlation_search_space_smear_deviation: float = Field(0.05, gt=0.0)
     loop_search_space_dimension: float = Field(2.0, gt=0.0)
     loop_search_space_resolution: float = Field(0.05, gt=0.0)
-    loop_search_space_smear_deviation: float = Field(0.03, gt=0.0)
+    loop_search_space_smear_deviation: float = Field(0.05, gt=0.0)
     distance_variance_penalty: float = Field(0.5, gt=0.0)
     angle_variance_penalty: float = Field(1.0, gt=0.0)
     fine_search_angle_offset: float = Field(0.00349, gt=0.0)
@@ -109,10 +109,11 @@ class SlamParams(Params):
     loop_search_drift_sigmas: float = Field(3.0, ge=0.0)
     loop_search_maximum_space_dimension: float = Field(60.0, gt=0.0)
     loop_search_minimum_angle_offset: float = Field(0.1, gt=0.0)
-    loop_search_maximum_candidates: int = Field(3, ge=1)
+    loop_search_maximum_candidates: int = Field(2, ge=1)
     loop_match_submap_size: int = Field(10, ge=1)
     loop_match_corridor_closures: bool = True
     loop_match_confirmation_nodes: int = Field(5, ge=0)
+    loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
     loop_closure_batch_distance: float = Field(0.5, gt=0.0)
     # navstack: odometry checks and the wide search (mapping/odometry_check.py,

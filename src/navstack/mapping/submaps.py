@@ -12,8 +12,9 @@ Here a submap is ``size`` consecutive nodes.  Its frame is the frame of its *anc
 middle node: the scans are drawn at their poses relative to the anchor, so a loop closure
 found in the submap is directly the edge ``anchor -> current node``.  The drawing is
 redone only when loop closures bend the submap itself (a member moved by more than a
-quarter cell relative to the anchor); precomputed grids are kept for the
-``cache_size`` most recently used submaps.
+quarter cell relative to the anchor); precomputed grids -- at the loop search resolution
+and four times coarser, for wide windows -- are kept for the ``cache_size`` most recently
+used submaps.
 """
 
 from __future__ import annotations
@@ -32,7 +33,10 @@ from navstack.mapping.fast_matcher import PrecomputedGrids
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ScanFeatures", "Submap", "SubmapPoints", "Submaps"]
+__all__ = ["COARSE_FACTOR", "ScanFeatures", "Submap", "SubmapPoints", "Submaps"]
+
+#: the coarse grids of a submap (wide loop windows) are this many times coarser
+COARSE_FACTOR = 4
 
 
 class ScanFeatures(Protocol):
@@ -79,7 +83,8 @@ class Submaps:
         self.cache_size = max(1, int(cache_size))
         self.all: list[Submap] = []
         self._points: dict[int, SubmapPoints] = {}
-        self._grids: OrderedDict[int, tuple[FloatArray, PrecomputedGrids]] = OrderedDict()
+        self._grids: OrderedDict[tuple[int, bool], tuple[FloatArray, PrecomputedGrids]] = \
+            OrderedDict()
 
     def add(self, node_id: int) -> None:
         """Append a node (ids must come in increasing order)."""
@@ -113,17 +118,24 @@ class Submaps:
             msk.append(scan.line_like)
         drawn = SubmapPoints(np.vstack(pts), np.vstack(nrm), np.concatenate(msk), relative)
         self._points[submap.index] = drawn
-        self._grids.pop(submap.index, None)
+        for coarse in (False, True):
+            self._grids.pop((submap.index, coarse), None)
         return drawn
 
-    def grids(self, submap: Submap, drawn: SubmapPoints) -> PrecomputedGrids:
-        """Precomputed grids of the drawn submap (cached, least recently used dropped)."""
-        hit = self._grids.get(submap.index)
+    def grids(self, submap: Submap, drawn: SubmapPoints,
+              coarse: bool = False) -> PrecomputedGrids:
+        """Precomputed grids of the drawn submap (cached, least recently used dropped);
+        ``coarse``: at four times the resolution (smear at least half a cell) for wide
+        windows."""
+        key = (submap.index, coarse)
+        hit = self._grids.get(key)
         if hit is not None and hit[0] is drawn.relative:
-            self._grids.move_to_end(submap.index)
+            self._grids.move_to_end(key)
             return hit[1]
-        grids = PrecomputedGrids(drawn.points, self.resolution, self.smear, self.depth)
-        self._grids[submap.index] = (drawn.relative, grids)
+        res = self.resolution * (COARSE_FACTOR if coarse else 1)
+        smear = max(self.smear, 0.5 * res) if coarse else self.smear
+        grids = PrecomputedGrids(drawn.points, res, smear, self.depth)
+        self._grids[key] = (drawn.relative, grids)
         while len(self._grids) > self.cache_size:
             self._grids.popitem(last=False)
         return grids
