@@ -433,7 +433,8 @@ def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArra
     n = max(1, round(window.coarse_angle_resolution / window.fine_angle_resolution))
     offsets = window.fine_angle_resolution * np.arange(-n, n + 1)
     rows, cols = _cells_at_angles(grid, local, pose[:2], pose[2] + offsets)
-    xy = _translation_moments(grid.fine, rows[n], cols[n], half, drop * local.shape[0])
+    xy = _translation_moments(grid.fine, rows[n], cols[n], half, drop * local.shape[0],
+                              2 if half > 6 else 1)
     scores = _sums_at_rows(grid.fine, rows, cols)
     keep = scores >= scores.max() - drop * local.shape[0]
     w = scores[keep]
@@ -455,16 +456,17 @@ def _sums_at_rows(fine: NDArray[np.float32], rows: NDArray[np.int64],
 
 @numba.njit(cache=True)
 def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
-                         cols: NDArray[np.int64], half: int, drop: float
+                         cols: NDArray[np.int64], half: int, drop: float, stride: int
                          ) -> NDArray[np.float64]:
     """Weighted second moments (cells^2) of the offsets whose summed score is within
-    ``drop`` of the best over ``[-half, half]^2``."""
-    size = 2 * half + 1
+    ``drop`` of the best over ``[-half, half]^2``, sampled every ``stride`` cells."""
+    n = half // stride
+    size = 2 * n + 1
     scores = np.empty((size, size))
     best = -1.0
     for i in range(size):
         for j in range(size):
-            v = _sum_under(fine, rows, cols, i - half, j - half)
+            v = _sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
             scores[i, j] = v
             if v > best:
                 best = v
@@ -474,8 +476,8 @@ def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
         for j in range(size):
             v = scores[i, j]
             if v >= best - drop:
-                dy = i - half
-                dx = j - half
+                dy = (i - n) * stride
+                dx = (j - n) * stride
                 norm += v
                 out[0, 0] += v * dx * dx
                 out[0, 1] += v * dx * dy

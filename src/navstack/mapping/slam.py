@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.geometry import se2_between, se2_compose, se2_inverse
+from navstack.mapping.fast_matcher import voxel_filter
 from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.loop_closure import LoopCloser, tangent_covariance
 from navstack.mapping.occupancy import LogOddsGrid, ScanData
@@ -132,6 +133,8 @@ class SlamMapper:
         self._last_node_stamp = -math.inf
         self._map_to_odom = np.zeros(3)
         self._world_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
+        self._local_cache: tuple[Any, tuple[FloatArray, FloatArray, NDArray[np.bool_],
+                                            LikelihoodGrid]] | None = None
         self._poses = np.zeros((0, 3))
         self._covs = np.zeros((0, 3, 3))
         self.frozen_nodes = 0  # nodes loaded for localization: matched against, never moved
@@ -329,8 +332,9 @@ class SlamMapper:
         pose = self._predicted(odom)
         p = self.params
         if p.match_skipped_scans and p.mode == "mapping" and self._running:
-            match = self.match_points(*self._world_features(self._running),
-                                      self.scan_points(ranges), pose)
+            ref, nrm, msk, grid = self._local_map(self._running)
+            match = self.match_points(ref, nrm, msk, self.scan_points(ranges), pose,
+                                      grid=grid, covariance=False)
             if match is not None and match.response >= p.link_match_minimum_response_fine:
                 pose = match.pose
         self.last_scan = (last, se2_between(self._poses[last], pose))
@@ -355,32 +359,62 @@ class SlamMapper:
     # --- matching --------------------------------------------------------------------
     def match_points(self, reference: FloatArray, normals: FloatArray,
                      line_like: NDArray[np.bool_], points: FloatArray, guess: FloatArray,
-                     window: SearchWindow | None = None) -> MatchResult | None:
+                     window: SearchWindow | None = None, grid: LikelihoodGrid | None = None,
+                     covariance: bool = True) -> MatchResult | None:
         """Correlative match of ``points`` (robot frame) against ``reference`` points
         (any frame) around ``guess`` in that frame, polished by point-to-line ICP; the
-        local search of ``correlation_search_space_*`` unless ``window`` is given."""
+        local search of ``correlation_search_space_*`` unless ``window`` is given.
+        ``grid`` is the reference's likelihood grid if already built; without
+        ``covariance`` the result's covariance is the floor only (skipped scans)."""
         win = window or self._window
         p = self.params
         if reference.shape[0] == 0 or points.shape[0] < 10:
             return None
-        c, s = math.cos(guess[2]), math.sin(guess[2])
-        query = points @ np.array([[c, s], [-s, c]]) + guess[:2]
-        reach = float(np.hypot(points[:, 0], points[:, 1]).max())
-        # rotating by the angular window sweeps far points by reach * angle
-        margin = (0.5 * win.dimension + reach * min(win.coarse_angle_offset, math.pi)
-                  + 4 * p.correlation_search_space_smear_deviation)
-        grid = LikelihoodGrid.around(reference, query, margin,
-                                     p.correlation_search_space_resolution,
-                                     p.correlation_search_space_smear_deviation)
-        match = match_scan(grid, points, guess, win)
+        if grid is None:
+            c, s = math.cos(guess[2]), math.sin(guess[2])
+            query = points @ np.array([[c, s], [-s, c]]) + guess[:2]
+            reach = float(np.hypot(points[:, 0], points[:, 1]).max())
+            # rotating by the angular window sweeps far points by reach * angle
+            margin = (0.5 * win.dimension + reach * min(win.coarse_angle_offset, math.pi)
+                      + 4 * p.correlation_search_space_smear_deviation)
+            grid = LikelihoodGrid.around(reference, query, margin,
+                                         p.correlation_search_space_resolution,
+                                         p.correlation_search_space_smear_deviation)
+        # the correlative search scores at most one point per 2 x 2 cells: near returns
+        # of a dense lidar would otherwise dominate the score and the cost
+        sparse = voxel_filter(points, 2.0 * p.correlation_search_space_resolution)
+        match = match_scan(grid, sparse, guess, win)
         pose = match.pose
         if p.use_point_to_line_refinement:
             refined, used = refine_point_to_line(reference, normals, line_like, points, pose)
             limit = 2.0 * p.correlation_search_space_resolution
             if used and math.hypot(*(refined[:2] - pose[:2])) <= limit:
                 pose = refined
+        unit = self.match_unit()
+        cov = (self._link_covariance(grid, sparse, match, win) if covariance
+               else np.diag(unit * unit))
         return MatchResult(pose=pose, response=match.response, hessian=match.hessian,
-                           covariance=self._link_covariance(grid, points, match, win))
+                           covariance=cov)
+
+    def _local_map(self, ids: Sequence[int]) -> tuple[FloatArray, FloatArray,
+                                                      NDArray[np.bool_], LikelihoodGrid]:
+        """Points, normals, line mask and likelihood grid of nodes ``ids`` at their
+        current poses, the grid covering all of them; the last one is kept, so the scans
+        between two nodes (and the next node's link) reuse it."""
+        key = (tuple(ids), self._poses[list(ids)].tobytes())
+        if self._local_cache is not None and self._local_cache[0] == key:
+            return self._local_cache[1]
+        p = self.params
+        ref, nrm, msk = self._world_features(ids)
+        res = p.correlation_search_space_resolution
+        reach = 3.0 * p.correlation_search_space_smear_deviation + 5 * res
+        lo = ref.min(axis=0) - reach
+        hi = ref.max(axis=0) + reach
+        grid = LikelihoodGrid(ref, res, p.correlation_search_space_smear_deviation,
+                              (lo[0], lo[1], hi[0], hi[1]))
+        value = (ref, nrm, msk, grid)
+        self._local_cache = (key, value)
+        return value
 
     def match_unit(self) -> FloatArray:
         """Standard deviations of a perfectly constrained match (x, y, theta): one
@@ -426,7 +460,8 @@ class SlamMapper:
                      if restarting else list(self._running))
         match: MatchResult | None = None
         if p.use_scan_matching and not check.missing and reference:
-            match = self.match_points(*self._world_features(reference), node.points, guess)
+            ref, nrm, msk, grid = self._local_map(reference)
+            match = self.match_points(ref, nrm, msk, node.points, guess, grid=grid)
         failed = match is None or match.response < p.link_match_minimum_response_fine
         if p.use_scan_matching and (check.suspect or restarting or failed):
             wide = wide_link(self, node.points, guess, check.search_radius(p, restarting),
