@@ -5,7 +5,7 @@ The robot (its kinematics, lidar and wheel-odometry noise from the robot profile
 the route's corners with a pure-pursuit-like controller at the simulator's physics rate;
 a scan is recorded whenever the robot has moved ``spacing`` metres or turned ``0.1`` rad
 since the last one (``spacing`` 0.1: a *dense* log, a scan every ~0.1 m) or a second has
-passed.  The world's moving obstacles are removed: the score compares the map with the
+passed, but never more often than the lidar's rate (``spacing`` 0: every lidar scan).  The world's moving obstacles are removed: the score compares the map with the
 static world raster, and SLAM among moving people is exercised by the SLAM-while-
 navigating benchmark (:mod:`navstack.benchmarks.sim_mapping`).
 
@@ -100,9 +100,10 @@ def record_route(world: str, route: tuple[tuple[float, float], ...] | None = Non
         t += dt
         pose = sim.pose
         o = sim.odometry.pose
-        moved = last is None or (math.hypot(pose.x - last[0], pose.y - last[1]) >= spacing
-                                 or abs(math.remainder(pose.theta - last[2], 2 * math.pi))
-                                 >= 0.1 or t - last_t >= 1.0)
+        moved = last is None or (t - last_t >= lidar.scan_time - 1e-9 and (
+            math.hypot(pose.x - last[0], pose.y - last[1]) >= spacing
+            or abs(math.remainder(pose.theta - last[2], 2 * math.pi)) >= 0.1
+            or t - last_t >= 1.0))
         if moved:
             scan = sim.scan(t)
             if scan is None:

@@ -310,20 +310,10 @@ class LoopCloser:
     def _corridor(self, grids: PrecomputedGrids, query: FloatArray, guess: FloatArray,
                   window: WideWindow, best: FloatArray, score: float,
                   rival: FloatArray) -> FloatArray | None:
-        """Unit direction of the corridor if every strong rival of ``best`` lies on the
-        line from ``best`` through ``rival`` at ``best``'s heading, else ``None``."""
         p = self.mapper.params
-        if abs(math.remainder(rival[2] - best[2], 2 * math.pi)) > 2 * math.radians(2.0):
-            return None
-        u = rival[:2] - best[:2]
-        u = u / max(float(np.hypot(u[0], u[1])), 1e-9)
-        other = wide_match(grids, query, guess, window,
-                           min_score=score * p.loop_match_maximum_ambiguity,
-                           exclusion=Exclusion((best[0], best[1]), (float(u[0]), float(u[1])),
-                                               4.0 * max(window.half_x, window.half_y),
-                                               p.loop_match_ambiguity_distance, best[2],
-                                               math.radians(2.0)))
-        return u if other is None else None
+        return corridor_direction(grids, query, guess, window, best, score, rival,
+                                  p.loop_match_maximum_ambiguity,
+                                  p.loop_match_ambiguity_distance)
 
     def _plausible_drift(self, anchor: int, node_id: int, measured: FloatArray,
                          poses: FloatArray) -> bool:
@@ -338,6 +328,23 @@ class LoopCloser:
         path = float(np.hypot(*np.diff(poses[lo:hi + 1, :2], axis=0).T).sum())
         bound = p.loop_match_maximum_drift_base + p.loop_match_maximum_drift_rate * path
         return correction <= bound
+
+
+def corridor_direction(grids: PrecomputedGrids, query: FloatArray, guess: FloatArray,
+                       window: WideWindow, best: FloatArray, score: float, rival: FloatArray,
+                       ratio: float, distance: float) -> FloatArray | None:
+    """Unit direction of a corridor if every strong rival of ``best`` (scoring at least
+    ``ratio`` times ``score``) lies on the line from ``best`` through ``rival`` at
+    ``best``'s heading (within ``distance`` of it and 2 degrees), else ``None``."""
+    if abs(math.remainder(rival[2] - best[2], 2 * math.pi)) > 2 * math.radians(2.0):
+        return None
+    u = rival[:2] - best[:2]
+    u = u / max(float(np.hypot(u[0], u[1])), 1e-9)
+    other = wide_match(grids, query, guess, window, min_score=score * ratio,
+                       exclusion=Exclusion((best[0], best[1]), (float(u[0]), float(u[1])),
+                                           4.0 * max(window.half_x, window.half_y), distance,
+                                           best[2], math.radians(2.0)))
+    return u if other is None else None
 
 
 def _agree(a: LoopClosure, b: LoopClosure, poses: FloatArray) -> bool:

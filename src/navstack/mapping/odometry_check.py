@@ -45,13 +45,23 @@ class OdometryCheck:
     reason: str
     elapsed: float
 
-    def search_radius(self, params: SlamParams, restarting: bool = False) -> float:
-        """How far the robot may be from the prediction [m]."""
+    def search_radius(self, params: SlamParams, restarting: bool = False,
+                      elapsed: float | None = None, seen_speed: float = 0.0) -> float:
+        """How far the robot may have moved since the last placed scan [m]: the speed
+        times the elapsed time (``elapsed``, default the check's), clamped to
+        ``recovery_search_minimum_distance`` .. ``recovery_search_maximum_distance``.
+        The speed is ``odometry_maximum_speed``, or 1.5 times the fastest the robot was
+        seen to move between placed scans (``seen_speed``) when that is lower -- a robot
+        that never went faster than 0.4 m/s is not searched for 1 m/s away."""
         lo = params.recovery_search_minimum_distance
         hi = params.recovery_search_maximum_distance
-        if restarting or not math.isfinite(self.elapsed):
+        dt = self.elapsed if elapsed is None else elapsed
+        if restarting or not math.isfinite(dt) or dt <= 0.0:
             return hi
-        return min(max(lo, params.odometry_maximum_speed * self.elapsed), hi)
+        speed = params.odometry_maximum_speed
+        if seen_speed > 0.0:
+            speed = min(speed, 1.5 * seen_speed)
+        return min(max(lo, speed * dt), hi)
 
 
 def odometry_verdict(params: SlamParams, odom: FloatArray | None, stamp: float, gap: bool,

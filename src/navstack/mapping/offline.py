@@ -13,9 +13,9 @@ error).  Simulated logs (:mod:`navstack.benchmarks.sim_logs`) use :func:`run_log
 ``minimum_travel_distance`` (0.5 m) or ``minimum_travel_heading`` (0.5 rad) of motion and
 ``minimum_time_interval`` (0.5 s).  The "corrected" CARMEN benchmark logs are already
 subsampled (one scan about every 0.7 m, or after a turn) but a raw or dense log has a
-scan every few centimetres: the profile keeps slam_toolbox's travel gates at a fifth
-(0.1 m / 0.1 rad -- every scan of a subsampled log, every second or third of a dense
-one) and drops the time gate (log clocks are coarse).  Every scan that is not a node is
+scan every few centimetres: the profile sets the travel gates to 0.3 m / 0.3 rad (nearly
+every scan of a subsampled log becomes a node, every third of a log with a scan every
+0.1 m) and drops the time gate (log clocks are coarse).  Every scan that is not a node is
 still matched against the running buffer (``match_skipped_scans``) so that each scan of
 the log gets a scored pose.  User parameters are applied on top of the profile.
 
@@ -66,7 +66,7 @@ __all__ = ["LOG_PROFILE", "OfflineResult", "OfflineSlamError", "Progress", "Scan
            "write_outputs", "write_trajectory_csv"]
 
 #: Parameters under the user's for logs (module docstring, "Log profile").
-LOG_PROFILE: dict[str, Any] = {"minimum_travel_distance": 0.1, "minimum_travel_heading": 0.1,
+LOG_PROFILE: dict[str, Any] = {"minimum_travel_distance": 0.3, "minimum_travel_heading": 0.3,
                                "minimum_time_interval": 0.0, "match_skipped_scans": True}
 #: Readings below this are not returns (CARMEN writes 0 for "no echo" on some lasers).
 LASER_RANGE_MIN = 0.01

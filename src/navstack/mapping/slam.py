@@ -157,6 +157,12 @@ class SlamMapper:
             minimum_angle_penalty=params.minimum_angle_penalty)
         self._loops = LoopCloser(self)
         self._odometry_noise = OdometryNoise(params)
+        self._unplaced: set[int] = set()   # nodes the wide search could not place
+        self._gap_before: dict[int, bool] = {}  # node -> its odometry had a gap before it
+        self._last_placed = 0
+        self._speeds: list[float] = []   # speeds between placed nodes seen [m/s]
+        self._responses: list[float] = []  # responses of the last ordinary links
+        self._closure_edges: list[int] = []  # edge numbers of the loop closures
         self._scan_count = 0
         self._start_override: FloatArray | None = None
         self._restart = False  # next scan starts a new odometry frame (after a reload)
@@ -207,6 +213,7 @@ class SlamMapper:
             self._loops.submaps.add(node.node_id)
         if n:
             self._last_node_stamp = self.nodes[-1].stamp
+            self._last_placed = n - 1
         if start_pose is None:
             self._running = list(running)
             self._map_to_odom = np.asarray(map_to_odom, float).copy()
@@ -312,7 +319,8 @@ class SlamMapper:
         self._after_node(node.node_id)
         if self.params.do_loop_closing and self.nodes:
             self._try_loop_closures(node.node_id)
-        self._running.append(node.node_id)
+        if node.node_id not in self._unplaced:
+            self._running.append(node.node_id)
         self._trim_running()
         if odom is not None:
             self._last_accepted_odom, self._last_accepted_stamp = odom, stamp
@@ -451,54 +459,107 @@ class SlamMapper:
         p = self.params
         restarting = self._restart
         prev_id = self.nodes[-1].node_id
-        if check.missing or odom is None:
-            guess = self._poses[prev_id].copy()
-        else:
-            guess = self._predicted(odom)
+        placed_id = self._last_placed
+        # no usable prediction: no odometry, a gap, or the previous scan could not be
+        # placed (its odometry frame is unknown) -> predict by the last motion, search wide
+        missing = check.missing or odom is None or prev_id in self._unplaced
+        guess = (self._predicted(odom) if odom is not None and not missing
+                 else self._motion_prediction(node.stamp))
         reference = (self._nearest_nodes(guess, p.scan_buffer_size,
                                          p.scan_buffer_maximum_scan_distance)
                      if restarting else list(self._running))
         match: MatchResult | None = None
-        if p.use_scan_matching and not check.missing and reference:
+        if p.use_scan_matching and reference:
             ref, nrm, msk, grid = self._local_map(reference)
             match = self.match_points(ref, nrm, msk, node.points, guess, grid=grid)
         failed = match is None or match.response < p.link_match_minimum_response_fine
-        if p.use_scan_matching and (check.suspect or restarting or failed):
-            wide = wide_link(self, node.points, guess, check.search_radius(p, restarting),
-                             reference)
-            # the local match around the odometry loses only to a fit it would itself
-            # count as failed against: below recovery_response_ratio times the wide one
-            if wide is not None and (failed or check.missing or match is None
-                                     or match.response
-                                     < p.recovery_response_ratio * wide.response):
-                if match is None or math.hypot(*(wide.pose[:2] - match.pose[:2])) > 0.05:
-                    self.stats.wide_recoveries += 1
-                    self.stats.recovered_scans.append(self.stats.scans_received - 1)
-                match = wide
+        typical = float(np.median(self._responses)) if len(self._responses) >= 5 else 1.0
+        if missing and match is not None and match.response >= 0.9 * typical:
+            # the predicted motion was right: the local match is as good as a usual
+            # link, no need to search wide (where a corridor's aliases wait)
+            missing_but_local = True
+        else:
+            missing_but_local = False
+        # the robot's top speed so far (90th percentile: log clocks jitter)
+        seen = float(np.percentile(self._speeds, 90)) if len(self._speeds) >= 10 else 0.0
+        radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
+                                     seen)
+        if p.use_scan_matching and not missing_but_local and (
+                check.suspect or restarting or failed or missing):
+            query = node.points
+            if not check.missing and odom is not None and prev_id in self._unplaced:
+                query = self._with_floating(node.points, odom)
+            wide = wide_link(self, query, guess, radius, reference)
+            if missing:
+                # without a usable motion: the wide search's unique fit when it beats
+                # the local fit around the guessed motion, else that local fit
+                chosen = wide if wide is not None and (
+                    failed or match is None or match.response < wide.response) else match
+            elif wide is not None and (failed or match is None or match.response
+                                       < p.recovery_response_ratio * wide.response):
+                # the local match around the odometry loses only to a fit it would
+                # itself count as failed against: below recovery_response_ratio times it
+                chosen = wide
+            else:
+                chosen = match
+            if chosen is not None and chosen is wide and (
+                    match is None or math.hypot(*(wide.pose[:2] - match.pose[:2])) > 0.05):
+                self.stats.wide_recoveries += 1
+                self.stats.recovered_scans.append(self.stats.scans_received - 1)
+            match = chosen
         if check.suspect:
             self.stats.odometry_events.append((self.stats.scans_received - 1, check.reason))
         matched = match is not None and match.response >= p.link_match_minimum_response_fine
+        anchor = reference[0] if restarting and reference else (
+            placed_id if missing else prev_id)
         if match is not None and matched:
             pose = match.pose
             cov = tangent_covariance(match.covariance, pose[2])
+            if not check.suspect and not missing:
+                self._responses = [*self._responses, match.response][-20:]
         else:
             if p.use_scan_matching:
                 self.stats.match_failures += 1
             pose = guess
-            if check.missing or odom is None:
+            if missing:
+                # not placed: tied loosely to the last placed node, kept out of the
+                # running buffer until the odometry to a later placed scan pins it
                 self.stats.unlinked_nodes += 1
-                radius = check.search_radius(p, restarting)
+                self._unplaced.add(node.node_id)
                 cov = np.diag([radius**2, radius**2, math.pi**2])
             else:
                 cov = self._odometry_noise.covariance(se2_between(self._poses[prev_id], guess))
                 if restarting:  # an unverified restart pose: tie it loosely
                     cov = cov + np.diag([0.25, 0.25, 0.1])
-        anchor = reference[0] if restarting and reference else prev_id
+        kernel = p.link_match_robust_kernel
+        if matched and missing:
+            # placed without odometry: the fit may be an alias, so the link is a loop
+            # closure in all but name -- robust, so later closures can cut it, and as
+            # uncertain as a recovery search's cell, so the loop search looks wide enough
+            kernel = p.loop_closure_robust_kernel
+            cell = max(p.loop_search_space_resolution, radius / 40.0)
+            cov = cov + np.diag([cell * cell, cell * cell, math.radians(1.0) ** 2])
         self._append_node(node, pose)
+        self._gap_before[node.node_id] = check.missing or odom is None
         self.graph.add_edge(anchor, node.node_id, se2_between(self._poses[anchor], pose),
-                            np.linalg.inv(cov), robust_kernel=p.link_match_robust_kernel,
+                            np.linalg.inv(cov), robust_kernel=kernel,
                             kernel=p.loop_closure_robust_kernel_type)
         prev_odom = self.nodes[prev_id].odom
+        if (prev_id in self._unplaced and not check.missing and odom is not None
+                and np.isfinite(prev_odom).all()):
+            # the odometry from the unplaced scan to this one: places it once this one is
+            step = se2_between(prev_odom, odom)
+            self.graph.add_edge(prev_id, node.node_id, step,
+                                np.linalg.inv(self._odometry_noise.covariance(step)))
+            if matched:
+                self._unplaced.discard(prev_id)
+        if node.node_id not in self._unplaced:
+            dt = node.stamp - self.nodes[placed_id].stamp
+            if matched and not missing and dt > 0.0:
+                moved = math.hypot(float(pose[0] - self._poses[placed_id, 0]),
+                                   float(pose[1] - self._poses[placed_id, 1]))
+                self._speeds = [*self._speeds, moved / dt][-200:]
+            self._last_placed = node.node_id
         if (p.use_odometry_edges and matched and not restarting and not check.suspect
                 and odom is not None and np.isfinite(prev_odom).all()):
             step = se2_between(prev_odom, odom)
@@ -519,6 +580,39 @@ class SlamMapper:
         if restarting:
             self._running = []
             self._restart = False
+
+    def _with_floating(self, points: FloatArray, odom: FloatArray) -> FloatArray:
+        """``points`` plus the scans of the unplaced nodes just before this scan, drawn
+        in its frame by the odometry between them (a wider view of the same place: one
+        scan alone is often ambiguous, two or three seldom are)."""
+        parts = [points]
+        k = len(self.nodes) - 1
+        while k >= 0 and k in self._unplaced and len(parts) < 4:
+            o = self.nodes[k].odom
+            if not np.isfinite(o).all():
+                break
+            rel = se2_between(odom, o)
+            c, s = math.cos(rel[2]), math.sin(rel[2])
+            parts.append(self.nodes[k].points @ np.array([[c, s], [-s, c]]) + rel[:2])
+            if self._gap_before.get(k, True):
+                break  # its own odometry is not continuous with the one before it
+            k -= 1
+        return np.vstack(parts)
+
+    def _motion_prediction(self, stamp: float) -> FloatArray:
+        """Pose of a scan without usable odometry: the last placed node moved on by its
+        own last motion (scaled by the elapsed time when the clock tells it)."""
+        b = self._last_placed
+        placed = [i for i in self._running if i != b]
+        if not placed:
+            return self._poses[b].copy()
+        a = placed[-1]
+        step = se2_between(self._poses[a], self._poses[b])
+        dt_ab = self.nodes[b].stamp - self.nodes[a].stamp
+        dt = stamp - self.nodes[b].stamp
+        if dt_ab > 0.0 and dt > 0.0:
+            step = step * min(dt / dt_ab, 3.0)
+        return se2_compose(self._poses[b], step)
 
     def _after_node(self, node_id: int) -> None:
         """Refresh the poses ISAM2 moved near the new node and store its marginal."""
@@ -560,22 +654,36 @@ class SlamMapper:
                                      robust_kernel=p.loop_closure_robust_kernel,
                                      kernel=p.loop_closure_robust_kernel_type)
                  for c in closures]
+        self._closure_edges.extend(edges)
         self.graph.update()
-        rejected = [k for k in edges if self.graph.edge_chi2(k) > p.loop_closure_maximum_chi2]
-        for k in rejected:
-            self.graph.remove_edge(k)
-        if rejected:
-            self.stats.loop_rejected_outliers += len(rejected)
-            self.graph.update()
-        accepted = len(edges) - len(rejected)
-        self.stats.loop_closures += accepted
-        if accepted and math.hypot(*(self.graph.pose(node_id)[:2] - before[:2])) \
+        self.stats.loop_closures += len(edges)
+        if math.hypot(*(self.graph.pose(node_id)[:2] - before[:2])) \
                 > p.loop_closure_batch_distance:
-            self.graph.optimize()
+            self._optimize()
             self.graph.update()
             self.stats.batch_optimizations += 1
         self._refresh_poses(full=True)
         self._covs[node_id] = self.graph.marginal_covariance(node_id)
+
+    def _optimize(self) -> float:
+        """Batch Levenberg-Marquardt, then the outlier check: a loop closure whose
+        residual at the optimum still exceeds ``loop_closure_maximum_chi2`` (its robust
+        kernel already let it go) is removed and the graph optimised again.  Checked
+        only at a batch optimum: right after a closure lands, ISAM2 has not yet spread
+        the correction, and a good closure that undoes a bad link looks like an
+        outlier there."""
+        cost = self.graph.optimize()
+        p = self.params
+        bad = [k for k in self._closure_edges
+               if self.graph.edge_chi2(k) > p.loop_closure_maximum_chi2]
+        if bad:
+            for k in bad:
+                self.graph.remove_edge(k)
+            self._closure_edges = [k for k in self._closure_edges if k not in set(bad)]
+            self.stats.loop_rejected_outliers += len(bad)
+            self.stats.loop_closures -= len(bad)
+            cost = self.graph.optimize()
+        return cost
 
     # --- localization mode -----------------------------------------------------------
     def _localize(self, points: FloatArray, odom: FloatArray) -> None:
@@ -601,7 +709,7 @@ class SlamMapper:
         node with odometry."""
         if not self.nodes:
             return 0.0
-        cost = self.graph.optimize()
+        cost = self._optimize()
         self._refresh_poses(full=True)
         for node in reversed(self.nodes):
             if not np.isnan(node.odom).any():

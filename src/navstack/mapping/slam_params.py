@@ -121,7 +121,7 @@ class SlamParams(Params):
     use_odometry_edges: bool = True
     odometry_linear_error: float = Field(0.05, ge=0.0)
     odometry_angular_error: float = Field(0.05, ge=0.0)
-    odometry_maximum_speed: float = Field(1.5, gt=0.0)
+    odometry_maximum_speed: float = Field(1.0, gt=0.0)
     odometry_maximum_turn_rate: float = Field(3.0, gt=0.0)
     recovery_search_minimum_distance: float = Field(1.0, gt=0.0)
     recovery_search_maximum_distance: float = Field(5.0, gt=0.0)

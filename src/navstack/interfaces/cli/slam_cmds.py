@@ -9,6 +9,7 @@ import typer
 
 from navstack.core.errors import NavstackError
 from navstack.interfaces.cli.common import app, fail, slam_overrides, write_json
+from navstack.mapping.map_metrics import TrajectoryScores
 
 
 @app.command()
@@ -23,13 +24,20 @@ def slam(
              "over the log profile.")] = None,
     max_scans: Annotated[int | None, typer.Option(min=1, help="Stop after N scans.")] = None,
 ) -> None:
-    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its error (RPE)."""
-    from navstack.mapping.offline import run_carmen, summary, write_outputs
+    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its errors."""
+    from navstack.mapping.offline import Progress, run_carmen, summary, warm_up, write_outputs
+
+    def progress(p: Progress) -> None:
+        if p.scans < p.total:  # the final report is the summary below
+            typer.echo(f"  {p.scans}/{p.total} scans, {p.nodes} nodes, {p.loop_closures} "
+                       f"loop closures, {p.ms_per_scan:.1f} ms/scan", err=True)
 
     try:
         overrides = slam_overrides(params)
+        warm_up()
         result = run_carmen(carmen, overrides, max_scans=max_scans,
-                            params_file=str(params) if params is not None else "")
+                            params_file=str(params) if params is not None else "",
+                            progress=progress)
         files = write_outputs(result, out)
     except (NavstackError, OSError) as exc:
         raise fail(str(exc)) from None
@@ -53,9 +61,32 @@ def slam(
         typer.echo(line)
     else:
         typer.echo("RPE: not scored (the log has no corrected reference poses)")
+    if result.scores is not None:
+        typer.echo(_global_line(result.scores, result.odometry_scores))
+    odo = report["odometry"]
+    typer.echo(f"odometry: {odo['gaps_in_log']} gaps in the log, {odo['events']} scans with "
+               f"missing or implausible odometry, {odo['recovered']} placed by the wide "
+               "search")
     speed = (f"speedup {result.speedup:.0f}x over the log's {result.log_duration_s:.0f} s"
              if result.speedup is not None and result.log_duration_s is not None
              else "speedup unknown (log timestamps too coarse)")
-    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median), {result.wall_s:.2f} s wall, {speed}")
+    first, last = result.tenth_ms()
+    tenths = (f", first/last 10% {first:.1f}/{last:.1f} ms/scan"
+              if first == first and last == last else "")
+    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median){tenths}, {result.wall_s:.2f} s "
+               f"wall, {speed}")
     typer.echo(f"wrote {', '.join(Path(p).name for p in files.values())} to {out}")
     write_json(json_out, report)
+
+
+def _global_line(scores: TrajectoryScores, odometry: TrajectoryScores | None) -> str:
+    """ATE, long-range RPE and loop relations in one line."""
+    parts = [f"ATE {scores.ate.rms_m:.4f} m aligned"
+             + (f" (odometry alone {odometry.ate.rms_m:.3f} m)" if odometry else "")]
+    far = [f"{d} scans {r.trans_mean_m:.4f} m" for d, r in scores.rpe.items() if d > 1]
+    if far:
+        parts.append("RPE over " + ", ".join(far))
+    loops = scores.loops
+    parts.append(f"loop relations {loops.trans_mean_m:.4f} m over {loops.pairs} pairs"
+                 if loops else "no loop relations (the reference never comes back)")
+    return "global: " + ", ".join(parts)
