@@ -52,13 +52,17 @@ def median_ms(fn: Callable[[], object], repeats: int, warmup: int = 1) -> float:
 
 
 def default_data_dir() -> Path:
-    """``../shared/data`` next to the project root, or ``NAVSTACK_DATA`` if set."""
+    """``../shared/data`` next to the project root (or ``../../shared/data``, for a
+    checkout one folder deeper, e.g. a git worktree), or ``NAVSTACK_DATA`` if set."""
     env = os.environ.get("NAVSTACK_DATA")
     if env:
         return Path(env)
     here = Path(__file__).resolve()
     for parent in here.parents:
-        cand = parent.parent / "shared" / "data"
-        if (parent / "pyproject.toml").exists() and cand.exists():
-            return cand
+        if not (parent / "pyproject.toml").exists():
+            continue
+        for up in (parent.parent, parent.parent.parent):
+            cand = up / "shared" / "data"
+            if cand.exists():
+                return cand
     return Path.cwd().parent / "shared" / "data"

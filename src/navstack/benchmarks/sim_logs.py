@@ -5,9 +5,10 @@ The robot (its kinematics, lidar and wheel-odometry noise from the robot profile
 the route's corners with a pure-pursuit-like controller at the simulator's physics rate;
 a scan is recorded whenever the robot has moved ``spacing`` metres or turned ``0.1`` rad
 since the last one (``spacing`` 0.1: a *dense* log, a scan every ~0.1 m) or a second has
-passed, but never more often than the lidar's rate (``spacing`` 0: every lidar scan).  The world's moving obstacles are removed: the score compares the map with the
-static world raster, and SLAM among moving people is exercised by the SLAM-while-
-navigating benchmark (:mod:`navstack.benchmarks.sim_mapping`).
+passed, but never more often than the lidar's rate (``spacing`` 0: every lidar scan).
+The world's moving obstacles are removed: the score compares the map with the static
+world raster, and SLAM among moving people is exercised by the SLAM-while-navigating
+benchmark (:mod:`navstack.benchmarks.sim_mapping`).
 
 The logs feed :func:`navstack.mapping.offline.score_run` exactly like a CARMEN log, with
 the true poses as the reference.  ``navstack bench slam-robust`` maps the warehouse and

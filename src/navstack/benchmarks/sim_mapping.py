@@ -8,7 +8,8 @@ compared with the world raster:
 
 * ``ate_m``: RMS absolute trajectory error, *without* alignment -- the SLAM map frame
   starts at the spawn pose, so it is the world frame;
-* ``map``: :func:`~navstack.mapping.map_metrics.occupancy_iou` at 0.05 m.
+* ``map``: :func:`~navstack.mapping.map_metrics.occupancy_iou` at 0.05 m of the map SLAM
+  saves (the graph's scans at their final poses).
 
 Used by ``navstack bench slam`` (``sim_ate_m``, ``sim_map_iou``) and the integration tests.
 """
@@ -100,11 +101,11 @@ def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "offi
     zeros = np.zeros((len(est), 1))
     ate = absolute_trajectory_error(np.hstack([est, zeros]), np.hstack([tru, zeros]),
                                     align=False)
-    grid = slam_node.occupancy_grid()
-    if grid is None:
+    if slam_node.mapper is None or not slam_node.mapper.nodes:
         raise RuntimeError("SLAM produced no map: no scan was processed")
+    # the map SLAM saves (its graph's scans; /slam_toolbox/save_map), not the live one
+    grid = slam_node.mapper.build_map().to_occupancy_grid(crop=True)
     score = occupancy_iou(grid, stack.world.to_occupancy_grid())
-    assert slam_node.mapper is not None
     return SimMappingResult(ate.rms_m, ate.max_m, score, outcomes, slam_node.mapper.stats,
                             stack.now, stack.sim.sim.collisions, len(est))
 

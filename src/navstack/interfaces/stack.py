@@ -108,11 +108,15 @@ class NavStack:
             xmin, ymin, xmax, ymax = self.world.bounds
             overrides = {"map_start_pose": [start.x, start.y, start.theta],
                          "map_minimum_extent": [xmin, ymin, xmax, ymax]}
+            # navigation plans on /map: a map every second (slam_toolbox's 5 s default
+            # leaves the planner routing through what the robot already saw blocked)
+            live = {"map_update_interval": 1.0}
             if isinstance(slam, SlamParams):
-                slam_params = slam.updated(**overrides)
+                slam_params = slam.updated(**overrides, **{
+                    k: v for k, v in live.items() if k not in slam.model_fields_set})
             else:
                 given = {} if slam is True else dict(slam)
-                slam_params = SlamParams.from_mapping({**overrides, **given},
+                slam_params = SlamParams.from_mapping({**live, **overrides, **given},
                                                       key_path="slam_toolbox")
             self.slam = SlamNode(rt, slam_params)
         self.global_costmap = CostmapNode(rt, "global_costmap",

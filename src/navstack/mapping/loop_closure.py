@@ -290,8 +290,24 @@ class LoopCloser:
                                                p.coarse_angle_resolution)
         if response < p.loop_match_minimum_response_fine:
             return None
-        unit = m.match_unit()
-        cov = surface + np.diag(unit * unit)
+        # a closure that passed: its final pose and covariance from the fine local
+        # matcher (the link matcher's raster and refinement; a closure a few centimetres
+        # off pulls the whole graph), around the polished pose
+        fine = m.match_points(drawn.points, drawn.normals, drawn.line_like, points, pose,
+                              m.refine_window)
+        if fine is not None and fine.response >= p.loop_match_minimum_response_fine:
+            pose, cov = fine.pose, fine.covariance.copy()
+            response = fine.response
+        else:
+            unit = m.match_unit()
+            cov = surface + np.diag(unit * unit)
+        # a closure that explains fewer of its points than the links usually do sees the
+        # place only partly (a room seen from the corridor through its door): its fit is
+        # less certain than its response surface says -- variance grows with the misfit
+        # squared relative to the links' (Hector / Karto scale their covariance so)
+        typical = m.typical_response()
+        if typical < 1.0 and response < typical:
+            cov = cov * ((1.0 - response) / (1.0 - typical)) ** 2
         if corridor is not None:
             # free along the corridor: a variance of the window's extent along it
             along = max(window.half_x, window.half_y) ** 2

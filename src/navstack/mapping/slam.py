@@ -163,6 +163,9 @@ class SlamMapper:
         self._speeds: list[float] = []   # speeds between placed nodes seen [m/s]
         self._responses: list[float] = []  # responses of the last ordinary links
         self._closure_edges: list[int] = []  # edge numbers of the loop closures
+        self._live_grid: LogOddsGrid | None = None  # live_map's kept grid
+        self._live_count = 0
+        self._live_poses = np.zeros((0, 3))
         self._scan_count = 0
         self._start_override: FloatArray | None = None
         self._restart = False  # next scan starts a new odometry frame (after a reload)
@@ -473,7 +476,7 @@ class SlamMapper:
             ref, nrm, msk, grid = self._local_map(reference)
             match = self.match_points(ref, nrm, msk, node.points, guess, grid=grid)
         failed = match is None or match.response < p.link_match_minimum_response_fine
-        typical = float(np.median(self._responses)) if len(self._responses) >= 5 else 1.0
+        typical = self.typical_response()
         if missing and match is not None and match.response >= 0.9 * typical:
             # the predicted motion was right: the local match is as good as a usual
             # link, no need to search wide (where a corridor's aliases wait)
@@ -598,6 +601,10 @@ class SlamMapper:
                 break  # its own odometry is not continuous with the one before it
             k -= 1
         return np.vstack(parts)
+
+    def typical_response(self) -> float:
+        """Median response of the recent ordinary links (1.0 before there are five)."""
+        return float(np.median(self._responses)) if len(self._responses) >= 5 else 1.0
 
     def _motion_prediction(self, stamp: float) -> FloatArray:
         """Pose of a scan without usable odometry: the last placed node moved on by its
@@ -735,17 +742,92 @@ class SlamMapper:
                 out[k] = se2_compose(poses[n], se2_between(self.nodes[n].odom, o))
         return out
 
+    def live_map(self, recent: Sequence[tuple[NDArray[np.floating], FloatArray]] = ()
+                 ) -> LogOddsGrid:
+        """The map while mapping, cheap enough to publish every second: the node scans
+        are added to a kept grid as they come (all of them again only when the graph
+        moved an integrated node by more than half a cell or a fifth of a degree -- a
+        loop closure), and a copy of it gets the free space of the ``recent`` scans
+        ``(ranges, map pose)`` on top (``clear_only``), so that a person who walked away
+        is cleared by the latest scans, not only by the next node's."""
+        res = self.params.resolution
+        poses = self.poses()
+        n_done = self._live_count
+        if self._live_grid is None or n_done > poses.shape[0] or (n_done and _moved(
+                self._live_poses[:n_done], poses[:n_done], 0.5 * res, math.radians(0.2))):
+            self._live_grid = LogOddsGrid(res)
+            n_done = 0
+        grid = self._live_grid
+        if poses.shape[0] > n_done:
+            self._integrate(grid, poses[n_done:], [n.ranges for n in self.nodes[n_done:]])
+            self._live_count = poses.shape[0]
+            self._live_poses = poses.copy()
+        if not recent:
+            return grid
+        out = grid.copy()
+        self._integrate(out, np.array([pose for _, pose in recent]),
+                        [ranges for ranges, _ in recent], clear_only=True)
+        return out
+
+    def _integrate(self, grid: LogOddsGrid, poses: FloatArray,
+                   ranges: Sequence[NDArray[np.floating]], clear_only: bool = False) -> None:
+        usable = min(self.laser.range_max, self.params.max_laser_range)
+        full_circle = bool(np.ptp(self.laser.angles) > 1.9 * math.pi)
+        scans = [ScanData(drop_isolated_no_returns(np.asarray(r, dtype=float),
+                                                   self.laser.range_min,
+                                                   self.laser.range_max, full_circle),
+                          self.laser.angles, self.laser.range_min, self.laser.range_max)
+                 for r in ranges]
+        grid.integrate_scans(poses, scans, usable, sensor_pose=self.laser.mount,
+                             clear_only=clear_only)
+
     def build_map(self, resolution: float | None = None) -> LogOddsGrid:
         """Occupancy grid of all node scans at their optimised poses."""
         res = self.params.resolution if resolution is None else resolution
         grid = LogOddsGrid(res)
         if not self.nodes:
             return grid
-        usable = min(self.laser.range_max, self.params.max_laser_range)
-        scans = [ScanData(node.ranges.astype(float), self.laser.angles, self.laser.range_min,
-                          self.laser.range_max) for node in self.nodes]
-        grid.integrate_scans(self.poses(), scans, usable, sensor_pose=self.laser.mount)
+        self._integrate(grid, self.poses(), [node.ranges for node in self.nodes])
         return grid
+
+
+def _moved(a: FloatArray, b: FloatArray, distance: float, angle: float) -> bool:
+    """Did any pose move by more than ``distance`` or ``angle``?"""
+    d = b - a
+    return bool(np.any(np.hypot(d[:, 0], d[:, 1]) > distance)
+                or np.any(np.abs(np.remainder(d[:, 2] + math.pi, 2 * math.pi) - math.pi)
+                          > angle))
+
+
+def drop_isolated_no_returns(ranges: FloatArray, range_min: float, range_max: float,
+                             wrap: bool, run: int = 2) -> FloatArray:
+    """``ranges`` with every run of at most ``run`` beams without a return (at or beyond
+    ``range_max``) between two beams with returns set to NaN (dropped).
+
+    A map clears along no-return beams up to the usable range (slam_toolbox does); a
+    single beam that misses its wall (dropout, a dark or glossy spot) would cut a free
+    line through the wall and far behind it -- a gap the planner takes.  An open
+    direction (a door, a long corridor) spans many beams and is still cleared."""
+    r = np.array(ranges, dtype=np.float64)
+    ret = np.isfinite(r) & (r >= range_min) & (r < range_max)
+    none = ~ret & ~np.isnan(r) & ~(r < range_min)
+    n = r.size
+    idx = np.flatnonzero(none)
+    if idx.size == 0 or n < 3:
+        return r
+    # runs of consecutive no-return beams
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    for a, b in zip(starts, ends, strict=True):
+        if b - a + 1 > run:
+            continue
+        left, right = a - 1, b + 1
+        if not wrap and (left < 0 or right >= n):
+            continue
+        if ret[left % n] and ret[right % n]:
+            r[a:b + 1] = np.nan
+    return r
 
 
 def _degenerate(cov: FloatArray, unit: FloatArray, ratio: float = 3.0) -> bool:
