@@ -9,9 +9,10 @@ whatever fits nearby.  The cases caught here:
   that the odometry since the previous scan is missing (a CARMEN log without ODOM lines
   between two scans, a dropped TF);
 * *implausible*: the increment since the last node is faster than the robot can move
-  (``odometry_maximum_speed`` [m/s], ``odometry_maximum_turn_rate`` [rad/s]) -- a jump --
-  or longer than ``link_scan_maximum_distance`` (slam_toolbox's maximum distance between
-  linked scans): the scans are far apart and the odometry error may exceed the window.
+  (``odometry_maximum_speed`` [m/s], ``odometry_maximum_turn_rate`` [rad/s]) -- a jump.
+
+Scans merely far apart are not suspect by themselves: if the odometry over the long step
+drifted out of the local window, the local match fails and the wide search runs anyway.
 
 A missing or implausible odometry makes the mapper run a wide search (full circle, as
 far as the robot could have moved: ``odometry_maximum_speed`` times the time since the
@@ -81,8 +82,6 @@ def odometry_verdict(params: SlamParams, odom: FloatArray | None, stamp: float, 
     dx, dy = odom[0] - last_odom[0], odom[1] - last_odom[1]
     dist = math.hypot(dx, dy)
     turn = abs(math.remainder(float(odom[2] - last_odom[2]), 2 * math.pi))
-    if dist > params.link_scan_maximum_distance:
-        return OdometryCheck(False, True, f"scans {dist:.2f} m apart", dt)
     if math.isfinite(dt):
         # half a metre / half a radian of slack: log clocks are coarse
         if dist > params.odometry_maximum_speed * dt + 0.5:

@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.errors import ConfigError, NavstackError
-from navstack.core.geometry import se2_compose
+from navstack.core.geometry import se2_between, se2_compose
 from navstack.mapping.carmen import CarmenScan, SkippedLine, read_carmen
 from navstack.mapping.map_metrics import (
     RelativePoseError,
@@ -241,12 +241,40 @@ def run_log(log: ScanLog, params: SlamParams,
             progress(_progress(mapper, k + 1, k_total, node_ms))
     t0 = time.perf_counter()
     mapper.finalize()
-    wall += time.perf_counter() - t0
     poses = mapper.poses()
     trajectory = se2_compose(poses[anchors], relative) if k_total else np.zeros((0, 3))
+    _register_lone_scans(mapper, log, trajectory, node_index)
+    wall += time.perf_counter() - t0
     if progress is not None:
         progress(_progress(mapper, k_total, k_total, node_ms))
     return mapper, trajectory, scan_ms, node_index, wall
+
+
+def _register_lone_scans(mapper: SlamMapper, log: ScanLog, trajectory: FloatArray,
+                         node_index: NDArray[np.int64]) -> None:
+    """Offline smoothing of the scans that had no odometry (never nodes): each is
+    matched against the final map around the pose interpolated (by time) between the
+    nodes before and after it -- the future an online run lacks."""
+    lone = np.flatnonzero(np.isnan(log.odometry).any(axis=1))
+    if lone.size == 0 or not mapper.nodes:
+        return
+    poses = mapper.poses()
+    stamps = np.array([n.stamp for n in mapper.nodes])
+    for k in lone:
+        before = int(node_index[k])
+        if before < 0 or stamps.size < 2:
+            continue
+        after = before + 1 if before + 1 < stamps.size and stamps[before] != log.stamps[k] \
+            else None
+        if after is None:
+            continue
+        span = stamps[after] - stamps[before]
+        f = (log.stamps[k] - stamps[before]) / span if span > 0 else 0.5
+        f = min(max(f, 0.0), 1.0)
+        guess = se2_compose(poses[before], se2_between(poses[before], poses[after]) * f)
+        pose = mapper.register(log.ranges[int(k)], guess)
+        if pose is not None:
+            trajectory[k] = pose
 
 
 def _progress(mapper: SlamMapper, done: int, total: int, node_ms: list[float]) -> Progress:

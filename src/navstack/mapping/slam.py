@@ -297,6 +297,10 @@ class SlamMapper:
         if not check.suspect and not self._should_process(odom, stamp):
             self._skipped_scan(ranges, odom)
             return False
+        if odom is None and not odom_gap and self.nodes and self.params.mode == "mapping" \
+                and not self._restart:
+            self._register_without_odometry(ranges, float(stamp), check)
+            return False
         if check.suspect:
             self._scan_count += 1
         points = self.scan_points(ranges)
@@ -349,6 +353,54 @@ class SlamMapper:
             if match is not None and match.response >= p.link_match_minimum_response_fine:
                 pose = match.pose
         self.last_scan = (last, se2_between(self._poses[last], pose))
+
+    def _register_without_odometry(self, ranges: NDArray[np.floating], stamp: float,
+                                   check: OdometryCheck) -> None:
+        """A scan that has no odometry while the odometry stream goes on (the next scan's
+        odometry still continues from the last node): it tells the graph nothing the
+        stream does not, so it is only registered -- the local match around the last
+        motion repeated, else the wide search -- for its pose, and never becomes a node
+        (a wrong fit cannot bend the map)."""
+        p = self.params
+        points = self.scan_points(ranges)
+        last = self.nodes[-1].node_id
+        guess = self._motion_prediction(stamp)
+        pose = guess
+        self.stats.odometry_events.append((self.stats.scans_received - 1, check.reason))
+        if self._running and points.shape[0] >= 10:
+            ref, nrm, msk, grid = self._local_map(self._running)
+            match = self.match_points(ref, nrm, msk, points, guess, grid=grid,
+                                      covariance=False)
+            if match is None or match.response < 0.9 * self.typical_response():
+                radius = check.search_radius(p, False, stamp - self.nodes[last].stamp,
+                                             self._seen_speed())
+                wide = wide_link(self, points, guess, radius, self._running)
+                if wide is not None and (match is None or wide.response > match.response):
+                    self.stats.wide_recoveries += 1
+                    self.stats.recovered_scans.append(self.stats.scans_received - 1)
+                    match = wide
+            if match is not None and match.response >= p.link_match_minimum_response_fine:
+                pose = match.pose
+        self.last_scan = (last, se2_between(self._poses[last], pose))
+
+    def register(self, ranges: NDArray[np.floating], guess: FloatArray) -> FloatArray | None:
+        """Pose of a scan near ``guess`` against the nodes around it (a local match; no
+        node, no edge), or ``None`` if it does not fit."""
+        p = self.params
+        points = self.scan_points(ranges)
+        near = self._nearest_nodes(guess, p.scan_buffer_size,
+                                   p.scan_buffer_maximum_scan_distance)
+        if not near or points.shape[0] < 10:
+            return None
+        ref, nrm, msk, grid = self._local_map(near)
+        match = self.match_points(ref, nrm, msk, points, guess, grid=grid, covariance=False)
+        if match is None or match.response < p.link_match_minimum_response_fine:
+            return None
+        return match.pose
+
+    def _seen_speed(self) -> float:
+        """The robot's top speed so far (90th percentile: log clocks jitter)."""
+        return float(np.percentile(self._speeds, 90)) if len(self._speeds) >= 10 else 0.0
 
     def _start_pose(self, odom: FloatArray) -> FloatArray:
         start = self.params.map_start_pose
@@ -465,7 +517,10 @@ class SlamMapper:
         placed_id = self._last_placed
         # no usable prediction: no odometry, a gap, or the previous scan could not be
         # placed (its odometry frame is unknown) -> predict by the last motion, search wide
-        missing = check.missing or odom is None or prev_id in self._unplaced
+        # (a previous scan that had no odometry at all leaves the odometry stream intact:
+        # this scan's odometry still continues from the last node that had some)
+        prev_cut = prev_id in self._unplaced and bool(np.isfinite(self.nodes[prev_id].odom).all())
+        missing = check.missing or odom is None or prev_cut
         guess = (self._predicted(odom) if odom is not None and not missing
                  else self._motion_prediction(node.stamp))
         reference = (self._nearest_nodes(guess, p.scan_buffer_size,
@@ -483,14 +538,12 @@ class SlamMapper:
             missing_but_local = True
         else:
             missing_but_local = False
-        # the robot's top speed so far (90th percentile: log clocks jitter)
-        seen = float(np.percentile(self._speeds, 90)) if len(self._speeds) >= 10 else 0.0
         radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
-                                     seen)
+                                     self._seen_speed())
         if p.use_scan_matching and not missing_but_local and (
                 check.suspect or restarting or failed or missing):
             query = node.points
-            if not check.missing and odom is not None and prev_id in self._unplaced:
+            if not check.missing and odom is not None and prev_cut:
                 query = self._with_floating(node.points, odom)
             wide = wide_link(self, query, guess, radius, reference)
             if missing:
