@@ -240,6 +240,7 @@ class LoopCloser:
         p = m.params
         stats = m.stats
         stats.loop_attempts += 1
+        m.refresh_poses(candidate.submap.nodes)
         drawn = self.submaps.points(candidate.submap, poses, m.nodes)
         window = candidate.window
         points = m.nodes[node_id].points
@@ -290,17 +291,8 @@ class LoopCloser:
                                                p.coarse_angle_resolution)
         if response < p.loop_match_minimum_response_fine:
             return None
-        # a closure that passed: its final pose and covariance from the fine local
-        # matcher (the link matcher's raster and refinement; a closure a few centimetres
-        # off pulls the whole graph), around the polished pose
-        fine = m.match_points(drawn.points, drawn.normals, drawn.line_like, points, pose,
-                              m.refine_window)
-        if fine is not None and fine.response >= p.loop_match_minimum_response_fine:
-            pose, cov = fine.pose, fine.covariance.copy()
-            response = fine.response
-        else:
-            unit = m.match_unit()
-            cov = surface + np.diag(unit * unit)
+        unit = m.match_unit()
+        cov = surface + np.diag(unit * unit)
         # a closure that explains fewer of its points than the links usually do sees the
         # place only partly (a room seen from the corridor through its door): its fit is
         # less certain than its response surface says -- variance grows with the misfit

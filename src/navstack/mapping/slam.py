@@ -163,6 +163,7 @@ class SlamMapper:
         self._speeds: list[float] = []   # speeds between placed nodes seen [m/s]
         self._responses: list[float] = []  # responses of the last ordinary links
         self._closure_edges: list[int] = []  # edge numbers of the loop closures
+        self._closure_events = 0
         self._live_grid: LogOddsGrid | None = None  # live_map's kept grid
         self._live_count = 0
         self._live_poses = np.zeros((0, 3))
@@ -679,6 +680,10 @@ class SlamMapper:
         self._refresh_poses(ids=[*self._running, node_id])
         self._covs[node_id] = self.graph.marginal_covariance(node_id)
 
+    def refresh_poses(self, ids: Sequence[int]) -> None:
+        """Bring the kept poses of nodes ``ids`` up to the graph's estimate."""
+        self._refresh_poses(ids=ids)
+
     def _refresh_poses(self, ids: Sequence[int] | None = None, full: bool = False) -> None:
         if full or ids is None or self._poses.shape[0] != len(self.nodes):
             self._poses = self.graph.poses() if self.nodes else np.zeros((0, 3))
@@ -717,12 +722,20 @@ class SlamMapper:
         self._closure_edges.extend(edges)
         self.graph.update()
         self.stats.loop_closures += len(edges)
-        if math.hypot(*(self.graph.pose(node_id)[:2] - before[:2])) \
-                > p.loop_closure_batch_distance:
+        batch = math.hypot(*(self.graph.pose(node_id)[:2] - before[:2])) \
+            > p.loop_closure_batch_distance
+        if batch:
             self._optimize()
             self.graph.update()
             self.stats.batch_optimizations += 1
-        self._refresh_poses(full=True)
+        # the running buffer and this node now; the rest when a batch ran or every
+        # tenth closure (the loop search tolerates centimetres of stale positions and
+        # refreshes the members of a submap before drawing it)
+        self._closure_events += 1
+        if batch or self._closure_events % 10 == 0:
+            self._refresh_poses(full=True)
+        else:
+            self._refresh_poses(ids=[*self._running, node_id])
         self._covs[node_id] = self.graph.marginal_covariance(node_id)
 
     def _optimize(self) -> float:

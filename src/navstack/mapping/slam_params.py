@@ -109,7 +109,7 @@ class SlamParams(Params):
     loop_search_drift_sigmas: float = Field(3.0, ge=0.0)
     loop_search_maximum_space_dimension: float = Field(60.0, gt=0.0)
     loop_search_minimum_angle_offset: float = Field(0.1, gt=0.0)
-    loop_search_maximum_candidates: int = Field(2, ge=1)
+    loop_search_maximum_candidates: int = Field(1, ge=1)
     loop_match_submap_size: int = Field(10, ge=1)
     loop_match_corridor_closures: bool = True
     loop_match_confirmation_nodes: int = Field(5, ge=0)
