@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pytest
 
-from navstack.benchmarks.sim_mapping import SimMappingResult, run_sim_mapping
+from navstack.benchmarks.sim_mapping import SimMappingResult, run_goal, run_sim_mapping
 
 
 @pytest.fixture(scope="module")
@@ -40,3 +40,15 @@ def test_loop_closures_do_not_hurt(with_loops: SimMappingResult,
     assert without_loops.stats.loop_closures == 0
     assert with_loops.ate_m <= without_loops.ate_m + 0.01
     assert with_loops.map.iou >= without_loops.map.iou - 0.02
+
+
+def test_corridor_goal_on_slam_is_as_quick_as_on_the_true_map() -> None:
+    """Issue 15 acceptance 4: the 4 m corridor goal with SLAM succeeds in at most 1.5x
+    the time it takes on the true map, without a recovery, and the map kept up (a map
+    update every second)."""
+    slam = run_goal((5.0, 7.5, 0.0), slam=True)
+    truth = run_goal((5.0, 7.5, 0.0), slam=False)
+    assert slam.status == truth.status == "SUCCEEDED"
+    assert slam.time_s <= 1.5 * truth.time_s
+    assert slam.recoveries == 0 and slam.collisions == 0
+    assert slam.map_updates >= int(slam.time_s) - 1

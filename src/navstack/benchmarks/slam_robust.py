@@ -43,8 +43,10 @@ from navstack.benchmarks.common import BenchResult
 from navstack.benchmarks.sim_logs import SimLog, record_route
 from navstack.benchmarks.slam import log_path
 from navstack.core.errors import NavstackError
+from navstack.core.geometry import se2_compose
 from navstack.mapping.carmen import LASER_KINDS, read_carmen
 from navstack.mapping.map_metrics import MapScore, occupancy_iou
+from navstack.mapping.occupancy import LogOddsGrid
 from navstack.mapping.offline import (
     OfflineResult,
     ScanLog,
@@ -179,13 +181,18 @@ def _read_text(path: Path) -> str:
 
 def map_world(sim: SimLog) -> tuple[OfflineResult, MapScore]:
     """SLAM on a simulated log with the map frame at the first true pose, and the map
-    scored against the world raster (0.05 m, one cell of tolerance)."""
+    scored against the world raster (0.05 m, one cell of tolerance) after the SE(2)
+    alignment of the ATE (a SLAM map's frame is its own: only its shape is scored)."""
     assert sim.log.reference is not None
     params = log_params({"map_start_pose": [float(v) for v in sim.log.reference[0]]})
     result = score_run(sim.log, params)
-    grid = result.mapper.build_map().to_occupancy_grid(crop=True)
+    mapper = result.mapper
+    shift = np.zeros(3) if result.scores is None else np.array(result.scores.ate.alignment)
+    aligned = se2_compose(shift, mapper.poses())
+    grid = LogOddsGrid(mapper.params.resolution)
+    mapper.integrate_into(grid, aligned)
     truth = load_world(sim.world).to_occupancy_grid()
-    return result, occupancy_iou(grid, truth)
+    return result, occupancy_iou(grid.to_occupancy_grid(crop=True), truth)
 
 
 def run(quick: bool, data_dir: Path) -> BenchResult:

@@ -9,14 +9,20 @@ Per scan (:meth:`SlamMapper.process_scan`):
    or one local match when ``match_skipped_scans`` asks for a pose of every scan;
 2. *odometry check* (:mod:`navstack.mapping.odometry_check`): missing odometry, a gap the
    caller reports, an increment faster than ``odometry_maximum_speed`` /
-   ``odometry_maximum_turn_rate`` allow or longer than ``link_scan_maximum_distance``;
+   ``odometry_maximum_turn_rate`` allow.  A scan with no odometry at all while the
+   stream goes on is only registered (never a node); one after a gap is predicted by the
+   last motion repeated;
 3. *linking*: the scan is matched against the *running buffer* (the last
    ``scan_buffer_size`` nodes within ``scan_buffer_maximum_scan_distance``) with the
-   correlative matcher (:mod:`navstack.mapping.scan_matcher`) around the odometry
-   prediction.  When the odometry is missing or suspect, or the response falls below
-   ``recovery_response_ratio`` times the recent median, a *wide* search (full circle,
-   as far as the robot could have moved; :mod:`navstack.mapping.fast_matcher`) runs too
-   and the better fit wins; the scan is flagged in :class:`SlamStats`;
+   correlative matcher (:mod:`navstack.mapping.scan_matcher`) around the prediction.
+   When the odometry is missing or suspect, or the local match fails, a *wide* search
+   (full circle, as far as the robot could have moved; :mod:`navstack.mapping.recovery`)
+   runs too and the better fit wins (the local one unless it is below
+   ``recovery_response_ratio`` times the wide one); the scan is flagged in
+   :class:`SlamStats`.  The link's covariance is the match's response surface
+   (:meth:`SlamMapper._link_covariance`); where it is degenerate (a corridor, an open
+   hall) an odometry edge is added too (``use_odometry_edges``, with noise learned from
+   the odometry's disagreement with the matches);
 4. *loop closure* against submaps, with a window that grows with the graph's marginal
    covariance (:mod:`navstack.mapping.loop_closure`);
 5. *optimisation*: ISAM2 every node (gtsam, :mod:`navstack.mapping.pose_graph`); when a
@@ -340,7 +346,9 @@ class SlamMapper:
     def _skipped_scan(self, ranges: NDArray[np.floating], odom: FloatArray | None) -> None:
         """A scan that does not become a node: its pose relative to the last node, by a
         local match against the running buffer when ``match_skipped_scans`` (else by
-        odometry).  Never added to the graph."""
+        odometry).  Never added to the graph.  The match and the odometry since the last
+        node are fused by their information, so a match that is free along a corridor
+        or in an open space keeps the odometry's position there."""
         if not self.nodes or odom is None:
             self.last_scan = None
             return
@@ -350,9 +358,12 @@ class SlamMapper:
         if p.match_skipped_scans and p.mode == "mapping" and self._running:
             ref, nrm, msk, grid = self._local_map(self._running)
             match = self.match_points(ref, nrm, msk, self.scan_points(ranges), pose,
-                                      grid=grid, covariance=False)
+                                      grid=grid)
             if match is not None and match.response >= p.link_match_minimum_response_fine:
-                pose = match.pose
+                odo_cov = self._odometry_noise.covariance(
+                    se2_between(self._poses[last], pose))
+                pose = _fuse(pose, odo_cov, match.pose,
+                             tangent_covariance(match.covariance, match.pose[2]))
         self.last_scan = (last, se2_between(self._poses[last], pose))
 
     def _register_without_odometry(self, ranges: NDArray[np.floating], stamp: float,
@@ -847,6 +858,12 @@ class SlamMapper:
         grid.integrate_scans(poses, scans, usable, sensor_pose=self.laser.mount,
                              clear_only=clear_only)
 
+    def integrate_into(self, grid: LogOddsGrid, poses: FloatArray) -> None:
+        """Draw every node's scan into ``grid`` at ``poses`` (N, 3) instead of its own
+        (a map of the graph moved as a whole, e.g. aligned for scoring)."""
+        self._integrate(grid, np.asarray(poses, dtype=np.float64),
+                        [node.ranges for node in self.nodes])
+
     def build_map(self, resolution: float | None = None) -> LogOddsGrid:
         """Occupancy grid of all node scans at their optimised poses."""
         res = self.params.resolution if resolution is None else resolution
@@ -855,6 +872,15 @@ class SlamMapper:
             return grid
         self._integrate(grid, self.poses(), [node.ranges for node in self.nodes])
         return grid
+
+
+def _fuse(a: FloatArray, cov_a: FloatArray, b: FloatArray, cov_b: FloatArray) -> FloatArray:
+    """Information-weighted mean of two poses (covariances in their tangent spaces, taken
+    as the same frame: the poses are centimetres apart)."""
+    d = se2_between(a, b)
+    info_a, info_b = np.linalg.inv(cov_a), np.linalg.inv(cov_b)
+    step = np.linalg.solve(info_a + info_b, info_b @ d)
+    return se2_compose(a, step)
 
 
 def _moved(a: FloatArray, b: FloatArray, distance: float, angle: float) -> bool:
