@@ -1,8 +1,10 @@
 """navstack: an autonomous navigation stack for mobile robots.
 
-Layers (imports only point down): interfaces -> missions -> navigation -> algorithms
-(costmap, planning, control, localization, mapping, perception, geo) -> sim -> drivers ->
-runtime -> core.  See ../shared/ARCHITECTURE.md and docs/.
+Layers (imports only point down): interfaces -> missions -> navigation and nodes (the node
+layer: thin shells adapting algorithms to the bus) -> algorithms (costmap, planning,
+control, localization, mapping, perception, geo; pure, no bus) -> core, with sim, drivers
+and runtime below the node layer and never imported by an algorithm.  tests/test_layers.py
+checks it.  See ../shared/ARCHITECTURE.md and docs/decisions.md.
 
 ``navstack.Navigator`` (the nav2_simple_commander-style API) is imported lazily so that
 ``import navstack`` stays light.

@@ -2,17 +2,14 @@
 
 ``navstack.interfaces.cli`` holds the user commands; ``navstack.benchmarks.cli`` the
 ``bench`` command, which sits above the interfaces layer because suites drive the whole
-stack.  This module imports both so neither layer imports the other upwards.
+stack.  This module imports both so neither layer imports the other upwards.  Usage
+errors and :class:`~navstack.core.errors.NavstackError` end as one ``error:`` line with
+exit code 2 (:class:`~navstack.interfaces.cli.common.NavstackGroup`).
 """
 
 from __future__ import annotations
 
-import sys
-
-import typer
-
 from navstack.benchmarks import cli as _bench_cli  # noqa: F401  (registers `bench`)
-from navstack.core.errors import NavstackError
 from navstack.interfaces.cli import app
 
 __all__ = ["app", "main"]
@@ -20,11 +17,7 @@ __all__ = ["app", "main"]
 
 def main() -> None:
     """Console entry point."""
-    try:
-        app()
-    except NavstackError as exc:  # last line of defence: one line, no traceback
-        typer.echo(f"error: {exc}", err=True)
-        sys.exit(2)
+    app()
 
 
 if __name__ == "__main__":

@@ -60,6 +60,19 @@ def test_goal_progress_checker() -> None:
         GoalProgressChecker().check(Pose2D(), 0.0)
 
 
+def test_goal_progress_checker_in_the_server_loop() -> None:
+    """The controller server passes the goal every cycle, re-transformed into the odom
+    frame: a goal moving by less than progress_epsilon is the same goal (no reset), a
+    goal moved farther is a new one."""
+    pc = GoalProgressChecker(GoalProgressCheckerParams(progress_epsilon=0.1, dwell_time=5.0))
+    assert pc.check(Pose2D(0, 0, 0), 0.0, Pose2D(10.0, 0.0, 0.0))
+    assert pc.check(Pose2D(0, 1.0, 0), 3.0, Pose2D(10.03, 0.02, 0.0))
+    assert not pc.check(Pose2D(0, -1.0, 0), 5.5, Pose2D(9.97, -0.02, 0.0))
+    assert pc.check(Pose2D(0, -1.0, 0), 6.0, Pose2D(5.0, 0.0, 0.0))  # a new goal
+    assert pc.failure_message() == ("the distance to the goal shrank by less than 0.10 m "
+                                    "in 5.0 s")
+
+
 def test_registry_aliases() -> None:
     assert PROGRESS_CHECKERS.get("nav2_controller::PoseProgressChecker") is PoseProgressChecker
     assert PROGRESS_CHECKERS.get("navstack::GoalProgressChecker") is GoalProgressChecker

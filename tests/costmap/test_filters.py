@@ -1,4 +1,4 @@
-"""Keepout and speed filters (Nav2 costmap filters)."""
+"""Keepout filter and the mask value conversion (Nav2 costmap filters)."""
 
 from __future__ import annotations
 
@@ -6,12 +6,9 @@ import numpy as np
 import pytest
 
 from navstack.core.errors import ConfigError
-from navstack.costmap import KeepoutFilter, LayeredCostmap, SpeedFilter
-from navstack.costmap.costmap_filter import (
-    SPEED_FILTER_ABSOLUTE,
-    SPEED_FILTER_PERCENT,
-    CostmapFilterInfo,
-)
+from navstack.core.msgs import CostmapFilterInfo, Pose2D
+from navstack.costmap import KeepoutFilter, LayeredCostmap
+from navstack.costmap.costmap_filter import SPEED_FILTER_PERCENT, filter_values
 from navstack.costmap.keepout_filter import KeepoutFilterParams, mask_to_costs
 
 from .helpers import grid
@@ -52,36 +49,33 @@ def test_keepout_mask_conversion_and_override() -> None:
 def test_keepout_rejects_scaled_filter_info() -> None:
     _, f = _keepout()
     with pytest.raises(ConfigError, match=r"needs base 0\.0 and multiplier 1\.0"):
-        f.set_mask(f.mask, CostmapFilterInfo(0, "/mask", 1.0, 2.0))  # type: ignore[arg-type]
+        f.set_filter_info(CostmapFilterInfo(type=0, base=1.0, multiplier=2.0))
+    with pytest.raises(ConfigError, match=r"got filter type 1 \(speed limit in percent"):
+        f.set_filter_info(CostmapFilterInfo(type=SPEED_FILTER_PERCENT))
 
 
-def _speed(info: CostmapFilterInfo) -> tuple[LayeredCostmap, SpeedFilter]:
-    lc = LayeredCostmap(10, 10, 0.5)
-    f = SpeedFilter()
+def test_filter_values_are_base_plus_multiplier_times_mask_value() -> None:
+    info = CostmapFilterInfo(type=SPEED_FILTER_PERCENT, base=100.0, multiplier=-1.0)
+    out = filter_values(np.array([0, 1, 70, 100, -1], np.int8), info)
+    assert out[:4].tolist() == [100.0, 99.0, 30.0, 0.0]
+    assert np.isnan(out[4])  # unknown stays unknown
+
+
+def test_keepout_cells_are_lethal_in_the_master_grid_with_mask_in_another_frame() -> None:
+    lc = LayeredCostmap(40, 40, 0.1, origin=(-1.0, -1.0), frame_id="odom")
+    f = KeepoutFilter()
     lc.add_filter(f)
-    mask = np.array([[0, 30, 90], [-1, 10, 100]], np.int8)
-    f.set_mask(grid(mask, 1.0), info)
-    return lc, f
-
-
-def test_speed_limit_percent() -> None:
-    lc, f = _speed(CostmapFilterInfo(SPEED_FILTER_PERCENT, "/mask", 0.0, 1.0))
-    assert f.speed_limit_at(1.5, 0.5) == (30.0, True)
-    assert f.speed_limit_at(0.5, 0.5) is None  # 0: no limit
-    assert f.speed_limit_at(0.5, 1.5) is None  # -1: unknown
-    assert f.speed_limit_at(5.0, 5.0) is None  # off the mask
-    lc.update_map(2.5, 1.5, 0.0)
-    assert f.current_speed_limit == (100.0, True)
-    _, g = _speed(CostmapFilterInfo(SPEED_FILTER_PERCENT, "/mask", 20.0, 1.0))
-    assert g.speed_limit_at(1.5, 0.5) == (50.0, True)
-    assert g.speed_limit_at(2.5, 0.5) is None  # 110 % is out of [0, 100]: no limit
-
-
-def test_speed_limit_absolute() -> None:
-    _, f = _speed(CostmapFilterInfo(SPEED_FILTER_ABSOLUTE, "/mask", 0.1, 0.01))
-    limit = f.speed_limit_at(1.5, 1.5)
-    assert limit is not None and limit[0] == pytest.approx(0.2) and limit[1] is False
-    _, g = _speed(CostmapFilterInfo(SPEED_FILTER_ABSOLUTE, "/mask", -1.0, 0.01))
-    assert g.speed_limit_at(1.5, 0.5) is None  # negative speed: no limit
-    with pytest.raises(ConfigError, match="got filter type 0"):
-        g.set_mask(g.mask, CostmapFilterInfo(0))  # type: ignore[arg-type]
+    mask = np.zeros((20, 20), np.int8)
+    mask[5:10, 5:10] = 100  # a 0.5 m zone at map (0.5..1.0, 0.5..1.0)
+    f.set_mask(grid(mask, 0.1), CostmapFilterInfo(), mask_in_costmap=Pose2D(-0.5, -0.5, 0.0))
+    lc.update_map(0.0, 0.0, 0.0)
+    lethal = np.argwhere(lc.costmap.data == 254)
+    # map (0.5..1.0) is odom (0.0..0.5): costmap cells 10..14 on both axes
+    assert lethal.min(axis=0).tolist() == [10, 10] and lethal.max(axis=0).tolist() == [14, 14]
+    assert len(lethal) == 25
+    # localization moves the map 0.3 m in +x: the zone is rewritten where it now is
+    f.set_mask_in_costmap(Pose2D(-0.2, -0.5, 0.0))
+    lc.update_map(0.0, 0.0, 0.0)
+    lethal = np.argwhere(lc.costmap.data == 254)
+    assert lethal.min(axis=0).tolist() == [10, 13] and lethal.max(axis=0).tolist() == [14, 17]
+    assert len(lethal) == 25

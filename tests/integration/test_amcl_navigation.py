@@ -10,11 +10,12 @@ from navstack.core.errors import ConfigError
 from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.demo import default_waypoints_path
 from navstack.interfaces.stack import NavStack
+from navstack.interfaces.stack_description import AmclLocalization
 from navstack.navigation.waypoint_follower import load_waypoints
 
 
 def test_a_goal_is_reached_while_amcl_tracks_the_true_pose() -> None:
-    stack = NavStack("office", "diff_drive", seed=1, amcl=True)
+    stack = NavStack("office", "diff_drive", seed=1, localization="amcl").start()
     assert stack.amcl is not None and stack.map_server is not None
     nav = Navigator(stack)
     errors: list[float] = []
@@ -41,4 +42,4 @@ def test_a_goal_is_reached_while_amcl_tracks_the_true_pose() -> None:
 
 def test_a_bad_amcl_key_names_it() -> None:
     with pytest.raises(ConfigError, match=r"amcl\.max_particle"):
-        NavStack("office", "diff_drive", amcl={"max_particle": 100})
+        NavStack("office", "diff_drive", localization=AmclLocalization({"max_particle": 100}))

@@ -50,7 +50,7 @@ def test_controller_files_build_the_named_plugin(name: str, cls_name: str) -> No
         # the rest of the packaged controller_server section is kept
         assert server["general_goal_checker"]["xy_goal_tolerance"] == 0.25
         assert server["controller_frequency"] == 20.0
-    stack = NavStack("office", seed=0, nav2_params=params)
+    stack = NavStack("office", seed=0, nav2_params=params).start()
     assert type(stack.controller.controllers["FollowPath"]).__name__ == cls_name
 
 
@@ -65,7 +65,8 @@ def test_mppi_file_uses_the_robot_limits_and_nav2_shifting() -> None:
     assert (p.vx_max, p.vx_min, p.wz_max) == (0.5, -0.3, 1.5)
     assert p.accel_limits[0] == 1.0 and p.accel_limits[1] == -1.0 and p.accel_limits[4] == 2.0
     assert p.shifts_control_sequence  # 1 / 20 Hz == model_dt 0.05 s (Nav2's rule)
-    assert (p.CostCritic.inflation_radius, p.CostCritic.cost_scaling_factor) == (0.7, 2.5)
+    cost = p.critic("CostCritic")
+    assert (cost.inflation_radius, cost.cost_scaling_factor) == (0.7, 2.5)
 
 
 def test_merge_replaces_whole_sections_and_keeps_the_rest() -> None:

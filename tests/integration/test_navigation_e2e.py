@@ -127,7 +127,7 @@ def test_stack_file_builds_the_running_graph(tmp_path: Path) -> None:
     stack_file = folder / "stack.yaml"
     stack_file.write_text("name: lab\nseed: 3\nrobot: turtlebot\n"
                           "world: {name: office, spawn: [2.0, 7.5, 0.0]}\n")
-    stack = NavStack.from_stack_file(stack_file)
+    stack = NavStack.from_stack_file(stack_file).start()
     assert stack.robot.name == "turtlebot"
     assert stack.sim.sim.pose == Pose2D(2.0, 7.5, 0.0)
     assert {"simulator", "planner_server", "controller_server", "bt_navigator"} <= set(

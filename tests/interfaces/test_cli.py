@@ -58,11 +58,24 @@ def test_corrupt_map_image(tmp_path: Path) -> None:
 def test_bad_cmd_value() -> None:
     res = runner.invoke(app, ["sim", "--cmd", "fast"])
     assert res.exit_code == 2
-    assert "error: --cmd 'fast' must be two numbers 'vx,wz' (e.g. 0.3,0.2)" in res.output
+    assert res.output == ("error: --cmd 'fast' must be two numbers 'vx,wz' [m/s, rad/s] "
+                          "(e.g. 0.3,0.2)\n")
 
 
 def test_every_subcommand_has_help() -> None:
     for cmd in (["--help"], ["sim", "--help"], ["worlds", "--help"], ["bench", "--help"],
-                ["robots", "--help"]):
+                ["robots", "--help"], ["-h"], ["sim", "-h"], ["bag", "recover", "-h"]):
         res = runner.invoke(app, cmd)
         assert res.exit_code == 0 and "Usage" in res.output
+
+
+def test_version_and_help_shows_bracketed_units() -> None:
+    from navstack import __version__
+
+    for flag in ("--version", "-V"):
+        res = runner.invoke(app, [flag])
+        assert (res.exit_code, res.output) == (0, f"navstack {__version__}\n")
+    res = runner.invoke(app, ["sim", "-h"], terminal_width=200)
+    assert "Constant command 'vx,wz' [m/s, rad/s], within the robot's velocity limits." \
+        in res.output
+    assert "Simulated seconds to run. Range (0, 3600] s." in res.output

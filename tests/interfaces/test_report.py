@@ -89,6 +89,13 @@ def test_report_reproduces_the_demo_path_lengths(demo_run: Path) -> None:
     total = sum(g["path_length_m"] for g in live["goals"])
     assert abs(rep["trajectory"]["path_length_m"] - total) < 0.01
     assert rep["goals"][0]["x"] == 4.0 and rep["goals"][1]["y"] == 7.0
+    # one definition of clearance: the bag's footprint and walkers give the demo's numbers
+    assert rep["notes"] == []
+    for key in ("min_clearance_m", "min_clearance_static_m", "min_clearance_moving_m"):
+        assert rep[key] == pytest.approx(live[key], abs=1e-3), key
+    assert live["min_clearance_moving_m"] is not None  # the office has walkers
+    assert (f"min clearance to static obstacles {rep['min_clearance_static_m']:.2f} m, to "
+            f"walkers {rep['min_clearance_moving_m']:.2f} m") in res.output
     assert 0.0 < rep["safety"]["latency_s"] <= 0.1  # controller at 20 Hz
     assert rep["safety"]["v_max_p5_m_s"] > 0.0
     assert "path length" in res.output and "safe speed bound" in res.output

@@ -4,6 +4,7 @@ robot on a circle (R = 2 m, v = 0.5 m/s), constant latency, a wall at a known di
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -13,13 +14,17 @@ from navstack.core.msgs import (
     Header,
     LaserScan,
     MapMetaData,
+    Marker,
+    MarkerArray,
     OccupancyGrid,
     Odometry,
+    Point,
     Pose2D,
     PoseStamped,
     PoseWithCovariance,
     Twist,
     TwistWithCovariance,
+    Vector3,
 )
 from navstack.interfaces.report import ReportParams, write_report
 from navstack.interfaces.report_metrics import (
@@ -94,8 +99,11 @@ def _pose_at(t: float) -> Pose2D:
     return Pose2D(R * math.cos(phi), R * math.sin(phi), phi + math.pi / 2)
 
 
-def _synthetic_bag(path: Path, with_truth: bool = True) -> Path:
+def _synthetic_bag(path: Path, with_truth: bool = True,
+                   extra: Callable[[BagWriter], None] | None = None) -> Path:
     w = BagWriter(path)
+    if extra is not None:
+        extra(w)
     data = np.zeros((100, 100), np.int8)
     data[:, 80] = 100  # a wall: cell centres at x = 3.05
     w.write("/map", OccupancyGrid(Header(0.0, "map"), MapMetaData(
@@ -133,8 +141,12 @@ def test_report_of_a_synthetic_circle(tmp_path: Path) -> None:
     assert (goal["status"], goal["time_s"]) == ("SUCCEEDED", 4.0)
     assert goal["path_length_m"] == pytest.approx(40 * chord, abs=1e-4)
     assert goal["min_goal_dist_m"] == pytest.approx(0.0, abs=1e-4)
-    # closest samples at x just under 2: their cell's centre is 1.95, the wall's 3.05
-    assert rep["min_clearance_m"] == pytest.approx(1.1)
+    # closest sample (t = 6.3 s) at x just under 2; the wall's cells start at x = 3.0
+    assert rep["min_clearance_m"] == pytest.approx(1.0, abs=1e-4)
+    assert rep["min_clearance_static_m"] == rep["min_clearance_m"]
+    assert rep["min_clearance_moving_m"] is None
+    assert rep["notes"] == ["no /sim/footprint in the bag: clearance is measured from a "
+                            "circle of robot_radius 0 m"]
     s = rep["safety"]
     assert s["latency_s"] == pytest.approx(0.07) and s["latency_source"].startswith("measured")
     assert (s["d_free_p5_m"], s["d_free_median_m"]) == (3.0, 3.0)
@@ -157,4 +169,37 @@ def test_report_falls_back_to_odometry_and_takes_a_given_latency(tmp_path: Path)
     assert (s["latency_s"], s["latency_source"]) == (0.5, "given (--latency)")
     assert s["d_free_p5_m"] == 2.5  # 3.0 m minus the robot radius
     assert s["v_max_p5_m_s"] == pytest.approx(-1.0 + math.sqrt(1.0 + 10.0), abs=1e-4)
-    assert rep["min_clearance_m"] == pytest.approx(1.1 - 0.5)
+    assert rep["min_clearance_m"] == pytest.approx(1.0 - 0.5, abs=1e-4)
+
+
+def test_report_clearance_uses_the_recorded_footprint_and_walkers(tmp_path: Path) -> None:
+    # a 0.4 m square body; a round walker (r 0.3) standing at (0, -1) and a box far away
+    bag = _synthetic_bag(tmp_path / "bag", extra=_footprint_and_walkers)
+    rep = write_report(bag, tmp_path / "out", ReportParams(robot_radius=5.0))
+    # t = 0: body at (0, -2) facing +x, its top edge y = -1.8; the walker's edge y = -1.3
+    assert rep["min_clearance_moving_m"] == pytest.approx(0.5, abs=1e-4)
+    # the wall's cells start at x = 3.0; the square's rightmost point at sample k is
+    # R cos(phi) + 0.2 (|sin phi| + |cos phi|) (heading phi + pi/2): largest near phi 0.09
+    phi = W * 0.1 * np.arange(101) - math.pi / 2
+    reach = R * np.cos(phi) + 0.2 * (np.abs(np.sin(phi)) + np.abs(np.cos(phi)))
+    assert rep["min_clearance_static_m"] == pytest.approx(3.0 - reach.max(), abs=1e-4)
+    assert rep["min_clearance_m"] == rep["min_clearance_moving_m"]
+    [goal] = rep["goals"]  # 2 s .. 6 s (samples 20..60): the walker is behind the robot
+    assert goal["min_clearance_moving_m"] > 0.5
+    assert goal["min_clearance_static_m"] == pytest.approx(3.0 - reach[20:61].max(), abs=1e-4)
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert ("- minimum clearance (footprint to obstacle): to static obstacles "
+            f"{rep['min_clearance_static_m']:.3f} m, to walkers 0.500 m") in md
+
+
+def _footprint_and_walkers(w: BagWriter) -> None:
+    square = [Point(x, y, 0.0) for x, y in ((0.2, 0.2), (-0.2, 0.2), (-0.2, -0.2),
+                                            (0.2, -0.2), (0.2, 0.2))]
+    w.write("/sim/footprint", Marker(Header(0.0, "base_link"), "footprint", 0,
+                                     Marker.LINE_STRIP, points=tuple(square)), 0.0, latched=True)
+    walkers = MarkerArray((
+        Marker(Header(0.0, "map"), "walker", 0, Marker.CYLINDER,
+               pose=Pose2D(0.0, -1.0, 0.0).to_pose(), scale=Vector3(0.6, 0.6, 1.7)),
+        Marker(Header(0.0, "map"), "cart", 1, Marker.CUBE,
+               pose=Pose2D(0.0, 4.0, 0.3).to_pose(), scale=Vector3(1.0, 0.5, 1.0))))
+    w.write("/sim/obstacles", walkers, 0.0)

@@ -6,8 +6,14 @@ import numpy as np
 import pytest
 
 from navstack.core.errors import ConfigError
-from navstack.localization.ekf import EkfNode, EkfParams, UkfParams, load_filter_params
+from navstack.localization.ekf import (
+    EkfParams,
+    UkfParams,
+    configuration_diagnostics,
+    load_filter_params,
+)
 from navstack.localization.ekf.params import DBL_MAX
+from navstack.nodes.ekf import EkfNode
 from navstack.runtime.node import Runtime
 
 # robot_localization's params/ekf.yaml (ROS 2 branches) with its comments trimmed; the
@@ -147,7 +153,7 @@ def test_configuration_diagnostics_as_robot_localization() -> None:
     x_only = [True] + [False] * 14
     p = EkfParams.from_mapping({"two_d_mode": True, "odom0": "a", "odom0_config": x_only,
                                 "pose0": "b", "pose0_config": x_only})
-    assert EkfNode(Runtime(), p).diagnostics == [
+    assert configuration_diagnostics(p) == [
         "2 absolute pose inputs detected for x; this may result in oscillations: make sure "
         "their variances are set appropriately",
         "neither y nor its velocity is measured: its error will grow without bound",

@@ -14,14 +14,12 @@ from navstack.core.msgs import (
     MagneticField,
     NavSatFix,
     NavSatStatus,
-    OccupancyGrid,
     Pose2D,
     PoseWithCovarianceStamped,
     Vector3,
 )
 from navstack.geo.conversions import LocalCartesian
 from navstack.localization.initial_pose import (
-    InitialPoseNode,
     InitialPoseParams,
     MapMatcher,
     gnss_pose_guess,
@@ -29,9 +27,6 @@ from navstack.localization.initial_pose import (
     scan_in_base,
     surface_points,
 )
-from navstack.runtime.bus import LATCHED
-from navstack.runtime.node import Runtime
-from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import load_robot
 from navstack.sim.simulator import Simulator
 from navstack.sim.worlds import load_world
@@ -130,28 +125,3 @@ def test_acceptance_median_error_over_20_trials() -> None:
     assert len(errors) == 20
     assert float(np.median(errors)) <= 0.3
     assert sum(e <= 0.3 for e in errors) >= 18
-
-
-def test_node_publishes_initialpose_in_the_simulator() -> None:
-    over = {"sensors": {"gnss": {"enabled": True, "mount": {"x": 0.1, "z": 0.3}},
-                        "magnetometer": {"enabled": True, "declination": 0.2,
-                                         "heading_offset": math.radians(10.0)},
-                        "georeference": {"latitude": DATUM[0], "longitude": DATUM[1],
-                                         "altitude": DATUM[2], "world_yaw": 0.4}}}
-    world = load_world("office")
-    rt = Runtime()
-    SimulatorNode(rt, Simulator(world, load_robot("turtlebot", over), seed=2,
-                                spawn=Pose2D(12.0, 3.0, 2.0)))
-    params = InitialPoseParams(datum=DATUM, map_from_enu=(0.0, 0.0, -0.4),
-                               magnetic_declination=0.2)
-    node = InitialPoseNode(rt, params)
-    rt.bus.publisher("/map", OccupancyGrid, LATCHED).publish(world.to_occupancy_grid())
-    got: list[PoseWithCovarianceStamped] = []
-    rt.bus.subscribe("/initialpose", PoseWithCovarianceStamped, got.append)
-    rt.bring_up()
-    rt.scheduler.run_until(1.0)
-    assert len(got) == 1 and node.estimate is not None and node.estimate.refined
-    pose = got[0].pose.pose.to_pose2d()
-    assert pose.distance_to(Pose2D(12.0, 3.0, 2.0)) < 0.05
-    assert abs(pose.theta - 2.0) < math.radians(1.0)
-    assert node.estimate.guess.distance_to(pose) > 0.1  # the scan match did the work

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navstack.benchmarks.common import default_data_dir
+from navstack.benchmarks.common import SHIPPED_DATA
 from navstack.mapping.g2o import (
     G2oFileNotFound,
     G2oFormatError,
@@ -18,7 +18,7 @@ from navstack.mapping.g2o import (
 )
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "g2o"
-SHARED = default_data_dir() / "g2o"
+SHIPPED = SHIPPED_DATA / "g2o"
 
 
 def _write(tmp_path: Path, text: str, name: str = "g.g2o") -> Path:
@@ -105,9 +105,8 @@ def test_missing_file_names_the_path(tmp_path: Path) -> None:
     assert isinstance(info.value, FileNotFoundError)
 
 
-@pytest.mark.skipif(not (SHARED / "CSAIL.g2o").exists(), reason="shared g2o data absent")
 def test_csail_edges_only_graph() -> None:
-    g = read_g2o(SHARED / "CSAIL.g2o")
+    g = read_g2o(SHIPPED / "CSAIL.g2o")
     assert (g.num_vertices, g.num_edges) == (1045, 1172)
     np.testing.assert_array_equal(g.poses[0], [0.0, 0.0, 0.0])
     np.testing.assert_array_equal(g.poses[1], g.measurements[0])   # EDGE_SE2 0 1 ...

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
@@ -270,17 +269,19 @@ def test_bad_input_is_refused_with_clear_errors() -> None:
         LogOddsGrid(RES, bounds=(1.0, 0.0, 0.0, 1.0))
 
 
-def test_360_beam_scan_integrates_well_under_a_millisecond() -> None:
+def test_360_beam_scans_from_moving_origins_mark_ends_occupied_and_rays_free() -> None:
+    """200 full-circle scans from origins a few cm apart: the last scan's end cells are
+    occupied (beams of the other origins graze a tenth of them) and the space between is
+    free (the timing budget is ``navstack bench slam``'s)."""
     g = LogOddsGrid(RES, bounds=(-10.0, -10.0, 10.0, 10.0))
     ang = np.linspace(-math.pi, math.pi, 360, endpoint=False)
     ends = np.stack((9.9 * np.cos(ang), 9.9 * np.sin(ang)), axis=1)
     hits = np.ones(360, bool)
     g.integrate_scan([0.0, 0.0], ends, hits)  # compile / load the cache
-    times = []
     for i in range(200):
         o = np.array([0.013 * (i % 7), -0.011 * (i % 5)])
-        t0 = time.perf_counter()
         g.integrate_scan(o, ends + o, hits)
-        times.append(time.perf_counter() - t0)
     assert g.shape == (400, 400)
-    assert float(np.median(times)) < 1e-3
+    p = g.probability()
+    assert np.mean([p[g.world_to_cell(*end)] > 0.5 for end in ends + o]) > 0.85
+    assert all(p[g.world_to_cell(*(0.5 * end))] < 0.5 for end in ends[::10])

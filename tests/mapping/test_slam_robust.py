@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navstack.benchmarks.common import default_data_dir
+from navstack.benchmarks.common import data_file
 from navstack.benchmarks.slam_robust import (
     _read_text,
     _run_text,
@@ -24,8 +24,7 @@ from navstack.benchmarks.slam_robust import (
 from navstack.mapping.carmen import read_carmen
 from navstack.mapping.offline import log_params, read_scan_log, score_run
 
-INTEL = default_data_dir() / "carmen" / "intel-corrected.log.gz"
-pytestmark = pytest.mark.skipif(not INTEL.is_file(), reason="shared CARMEN data not found")
+INTEL = data_file("carmen/intel-corrected.log.gz")  # shipped in navstack/data
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,16 @@ from typing import Any
 
 import pytest
 
+from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D
 from navstack.navigation import messages as m
-from navstack.navigation.behavior_server import BehaviorResult, BehaviorServer, CollisionChecker
+from navstack.navigation.behavior_server import (
+    BehaviorResult,
+    BehaviorServer,
+    BehaviorServerParams,
+    CollisionChecker,
+)
+from navstack.navigation.behaviors import Spin, SpinParams, Wait
 from navstack.runtime.actions import ActionClient, GoalHandle, GoalStatus
 from navstack.runtime.node import Runtime
 from tests.navigation.fakes import FakeBase
@@ -162,3 +169,50 @@ def test_wait_cancel_preempt_tf_error_and_inactive() -> None:
     assert no_tf.result.error_code == m.BehaviorErrorCode.TF_ERROR
     assert no_tf.result.error_msg.startswith("spin: robot pose (base_link in odom) is not "
                                              "available: frame 'odom' does not exist")
+
+
+def test_behavior_plugins_from_a_nav2_section() -> None:
+    """``behavior_plugins`` picks the actions; a section names the type and may override
+    the server-level Spin limits (Nav2 layout)."""
+    params = BehaviorServerParams.from_mapping({
+        "behavior_plugins": ["spin", "nap"], "max_rotational_vel": 0.8,
+        "spin": {"plugin": "nav2_behaviors/Spin", "min_rotational_vel": 0.5},
+        "nap": {"plugin": "nav2_behaviors::Wait"}}, file="nav2.yaml", key_path="behavior_server")
+    spin = params.behaviors["spin"].params
+    assert isinstance(spin, SpinParams)
+    assert (spin.max_rotational_vel, spin.min_rotational_vel) == (0.8, 0.5)
+    rt = Runtime()
+    FakeBase(rt, Pose2D())
+    server = BehaviorServer(rt, params)
+    rt.bring_up()
+    assert isinstance(server.behaviors["nap"], Wait) and isinstance(server.behaviors["spin"], Spin)
+    h = send(rt, "/nap", m.WaitGoal(0.5))
+    finish(rt, h)
+    assert h.status is GoalStatus.SUCCEEDED
+    assert h.result is not None and h.result.result.total_elapsed_time == pytest.approx(0.5)
+    # only the listed behaviors are served
+    assert set(rt.bus.action_servers) >= {"/spin", "/nap"} and m.BACKUP not in rt.bus.action_servers
+    h = send(rt, "/nap", m.SpinGoal(1.0))  # the wrong goal type is an INVALID_INPUT failure
+    finish(rt, h)
+    assert h.status is GoalStatus.FAILED and h.result is not None
+    assert h.result.error_code == int(m.BehaviorErrorCode.INVALID_INPUT)
+    assert h.result.error_msg == "nap: expects a WaitGoal, got SpinGoal"
+
+
+def test_behavior_section_errors_name_the_file_and_key() -> None:
+    with pytest.raises(ConfigError) as err:
+        BehaviorServerParams.from_mapping({"spin": {"plugin": "nav2_behaviors/Spinn"}},
+                                          file="nav2.yaml", key_path="behavior_server")
+    assert str(err.value).startswith("nav2.yaml: behavior_server.spin.plugin: unknown behavior "
+                                     "plugin 'nav2_behaviors/Spinn' (did you mean "
+                                     "'nav2_behaviors/Spin'?")
+    with pytest.raises(ConfigError) as err:
+        BehaviorServerParams.from_mapping({"behavior_plugins": ["dance"]}, file="nav2.yaml",
+                                          key_path="behavior_server")
+    assert str(err.value).startswith("nav2.yaml: behavior_server.dance.plugin: required key "
+                                     "is missing")
+    with pytest.raises(ConfigError) as err:
+        BehaviorServerParams.from_mapping({"spin": {"max_rotational_vel": -1.0}},
+                                          file="nav2.yaml", key_path="behavior_server")
+    assert str(err.value) == ("nav2.yaml: behavior_server.spin.max_rotational_vel: Input should "
+                              "be greater than 0 (got -1.0)")

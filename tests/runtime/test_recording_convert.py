@@ -13,9 +13,14 @@ from navstack.core.msgs import (
     Bool,
     Clock,
     ColorRGBA,
+    CostmapFilterInfo,
+    DiagnosticArray,
+    DiagnosticStatus,
     Float64,
     Header,
     Imu,
+    JointState,
+    KeyValue,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -28,6 +33,8 @@ from navstack.core.msgs import (
     Path,
     Point,
     PointCloud,
+    PointCloud2,
+    PointField,
     Polygon,
     Pose,
     Pose2D,
@@ -36,6 +43,7 @@ from navstack.core.msgs import (
     PoseWithCovariance,
     PoseWithCovarianceStamped,
     Quaternion,
+    SpeedLimit,
     String,
     TFMessage,
     Transform,
@@ -116,6 +124,15 @@ SAMPLES: list[Any] = [
            Vector3(0.5, 0.5, 0.5), ColorRGBA(1.0, 0.5, 0.0, 1.0), (Point(1, 2, 3),), "G1"),
     MarkerArray((Marker(ns="a", id=1), Marker(ns="b", id=2, text="x"))),
     GoalStatusArray((GoalStatusEntry(GoalInfo(bytes(range(16)), 4.5), 4),)),
+    CostmapFilterInfo(Header(1.5, ""), 1, "/speed_filter_mask", 100.0, -1.0),
+    SpeedLimit(Header(2.25, "odom"), True, 30.0),
+    JointState(Header(2.5, "base_link"), ("left_wheel_joint", "right_wheel_joint"),
+               (1.5, -2.0), (0.25, 0.5), ()),
+    PointField("ring", 16, PointField.UINT16, 1),
+    KeyValue("vcu.packets_rx", "42"),
+    DiagnosticStatus(DiagnosticStatus.ERROR, "vehicle_driver: rover_vcu", "link lost",
+                     "rover", (KeyValue("link_lost", "true"),)),
+    DiagnosticArray(Header(1.0, ""), (DiagnosticStatus(0, "a", "ok", "hw", ()),)),
 ]
 
 
@@ -129,9 +146,22 @@ def test_round_trip_through_cdr_is_exact(msg: Any) -> None:
 def test_every_bus_message_type_has_a_ros_counterpart() -> None:
     from navstack.core import msgs
 
-    covered = {type(m).__name__ for m in SAMPLES} | {"NavSatStatus", "ColorRGBA", "MapMetaData"}
-    # Twist2D is navstack's planar velocity: no ROS 2 message has that shape
-    assert set(msgs.__all__) - covered == {"Twist2D"}
+    covered = {type(m).__name__ for m in SAMPLES} | {"NavSatStatus", "ColorRGBA", "MapMetaData",
+                                                     "PointCloud2"}  # below
+    # Twist2D is navstack's planar velocity and NavigationHold its pause request: no
+    # ROS 2 message has those shapes
+    assert set(msgs.__all__) - covered == {"Twist2D", "NavigationHold"}
+
+
+def test_point_cloud2_is_written_whole_and_read_back_as_xyz() -> None:
+    cloud = PointCloud2.from_fields(Header(3.0, "velodyne"), {
+        "x": np.array([1.0, np.nan], np.float32), "y": np.array([2.0, 0.0], np.float32),
+        "z": np.array([-0.5, 0.0], np.float32), "ring": np.array([3, 4], np.uint16)})
+    ros = CODEC.to_ros(cloud)
+    assert [f.name for f in ros.fields] == ["x", "y", "z", "ring"] and ros.point_step == 14
+    back = CODEC.deserialize(CODEC.serialize(cloud), "sensor_msgs/msg/PointCloud2")
+    assert isinstance(back, PointCloud) and back.header == cloud.header
+    assert np.array_equal(back.xyz, cloud.xyz().astype(np.float32), equal_nan=True)
 
 
 @pytest.mark.parametrize("msg", [m for m in SAMPLES if type(m) in FAST_ENCODERS] + [

@@ -14,7 +14,7 @@ from navstack.sim.robot import RobotParams, list_robots, load_robot, robot_from_
 
 
 def test_builtin_profiles_load() -> None:
-    assert list_robots() == ["diff_drive", "golf_cart", "omni", "turtlebot"]
+    assert list_robots() == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot"]
     for name in list_robots():
         robot = load_robot(name)
         assert robot.name == name
@@ -32,6 +32,21 @@ def test_turtlebot_profile_values() -> None:
         360, 12.0, 10.0, "base_scan")
     assert (lidar.mount.x, lidar.mount.z) == (-0.064, 0.122)
     assert isinstance(tb.kinematic_model(), DiffDrive)
+
+
+def test_rover_profile_values() -> None:
+    """The rover's figures (docs/drivers.md): skid steer as diff drive, 1.5 m/s, 0.8 m
+    track, 1.2 m x 0.9 m body, 360 degree lidar, GNSS on."""
+    rover = load_robot("rover")
+    k = rover.kinematics
+    assert (k.type, k.max_vel_x, k.min_vx, k.max_vel_theta, k.wheel_separation) == (
+        "diff_drive", 1.5, -0.5, 1.0, 0.8)
+    assert rover.footprint_model().circumscribed_radius == pytest.approx(
+        math.hypot(0.65, 0.5), abs=1e-6)
+    s = rover.sensors
+    assert (s.lidar.beams, s.lidar.range_max, s.gnss.enabled, s.imu.rate_hz) == (
+        720, 30.0, True, 100.0)
+    assert isinstance(rover.kinematic_model(), DiffDrive)
 
 
 def test_golf_cart_and_omni_profiles() -> None:
@@ -97,8 +112,8 @@ def test_unknown_robot_name_lists_known() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_robot("turtlebott")
     assert str(err.value) == ("unknown robot 'turtlebott' (did you mean 'turtlebot'?); "
-                              "known: diff_drive, golf_cart, omni, turtlebot")
-    assert err.value.known == ["diff_drive", "golf_cart", "omni", "turtlebot"]
+                              "known: diff_drive, golf_cart, omni, rover, turtlebot")
+    assert err.value.known == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot"]
     with pytest.raises(ConfigError, match="robot profile file not found"):
         load_robot("/nonexistent/robot.yaml")
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -287,18 +286,10 @@ def test_lidar_noise_bias_and_dropout_statistics() -> None:
     assert valid.min() >= 0.12 and valid.max() <= 12.0
 
 
-def test_lidar_same_seed_same_scan_and_budget() -> None:
+def test_lidar_same_seed_same_scan() -> None:
     lidar = LidarModel(LidarParams(noise_std=0.01, dropout_prob=0.01))
     true = np.linspace(0.05, 15.0, 360)
     a = lidar.measure(true, 0.0, np.random.default_rng(42))
     b = lidar.measure(true, 0.0, np.random.default_rng(42))
     assert a is not None and b is not None
     np.testing.assert_array_equal(a.ranges, b.ranges)
-    rng = np.random.default_rng(0)
-    times = []
-    for _ in range(7):
-        t0 = time.perf_counter()
-        for _ in range(200):
-            lidar.measure(true, 0.0, rng)
-        times.append((time.perf_counter() - t0) / 200)
-    assert sorted(times)[3] < 200e-6  # ~20 us on a laptop; generous for shared CI

@@ -12,7 +12,8 @@ from typing import Annotated
 import typer
 
 from navstack.core.errors import NavstackError
-from navstack.interfaces.cli.common import app, fail, write_json
+from navstack.interfaces.cli.common import app, fail, stop_on_sigterm, write_json
+from navstack.interfaces.cli.options import check_out_file
 
 
 @app.command()
@@ -20,32 +21,42 @@ def bench(
     suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
     quick: Annotated[bool, typer.Option("--quick", help="Smaller, faster run (CI).")] = False,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results here.")] = None,
-    data_dir: Annotated[Path | None, typer.Option(help="Shared data folder.")] = None,
+    data_dir: Annotated[Path | None, typer.Option(help=(
+        "Folder searched first for benchmark data (then NAVSTACK_DATA, the data shipped "
+        "in navstack/data, ../shared/data)."))] = None,
     controller: Annotated[str | None, typer.Option(
         "--controller", help="FollowPath controller of the navigation suite: dwb "
                              "(default), mppi or rpp.")] = None,
 ) -> None:
-    """Run a benchmark suite; prints a table of metrics and writes JSON."""
+    """Run a benchmark suite; prints a table of metrics and writes JSON.
+
+    Shows progress per stage on stderr (a bar on a terminal, one line per stage
+    otherwise)."""
     from navstack.benchmarks.runner import available_suites, run_suite
+    from navstack.interfaces.cli.progress import StageProgress
 
     if suite == "list":
         for name in available_suites():
             typer.echo(name)
         return
+    if json_out is not None:
+        check_out_file(json_out, "--json")
     try:
         options = {"controller": controller} if controller is not None else {}
-        result = run_suite(suite, quick, data_dir, options)
+        with stop_on_sigterm(), StageProgress(f"bench {suite}") as progress:
+            result = run_suite(suite, quick, data_dir, options, progress=progress)
     except NavstackError as exc:
         raise fail(str(exc)) from None
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     label = f" --controller {controller}" if controller is not None else ""
     table = Table(title=f"navstack bench {suite}{label}{' (quick)' if quick else ''}")
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, value in result.metrics.items():
-        table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+        table.add_row(Text(key), f"{value:.4g}" if isinstance(value, float) else str(value))
     Console().print(table)
     if result.show_cases and result.cases:
         rows = Table(title=f"{suite}: runs")
@@ -53,7 +64,7 @@ def bench(
         for column in columns:
             rows.add_column(column, justify="left" if column == "parameter" else "right")
         for case in result.cases:
-            rows.add_row(*(f"{case.get(c, '')}" for c in columns))
+            rows.add_row(*(Text(f"{case.get(c, '')}") for c in columns))
         Console(width=200).print(rows)
     for note in result.notes:
         typer.echo(f"note: {note}")

@@ -5,9 +5,9 @@ laps around the campus fountain plaza at 0.5 m/s.  The drive is a test harness: 
 pursuit on the *true* pose keeps it on the route, so the estimators only listen.  Three
 estimates are compared with the simulator's truth every 0.5 s:
 
-* the EKF (:class:`~navstack.localization.ekf.node.EkfNode`) fusing the wheel odometry
+* the EKF (:class:`~navstack.nodes.ekf.EkfNode`) fusing the wheel odometry
   twist (vx, vyaw), the IMU (yaw, vyaw) and ``/odometry/gps`` from
-  :class:`~navstack.localization.navsat.NavsatTransformNode` (x, y), a robot_localization
+  :class:`~navstack.nodes.navsat.NavsatTransformNode` (x, y), a robot_localization
   setup with ``world_frame: odom`` and the navsat ``datum`` at the world origin;
 * the wheel odometry alone (``/odom`` placed at the start pose).
 
@@ -127,9 +127,10 @@ class TruthHistory:
 def run_campus_drive(duration: float = 600.0, seed: int = 4) -> CampusDriveResult:
     """Drive ``duration`` simulated seconds; score the EKF and the odometry."""
     from navstack.core.msgs import Odometry, Pose2D, Twist
-    from navstack.localization.ekf.node import EkfNode
     from navstack.localization.ekf.params import EkfParams
-    from navstack.localization.navsat import NavsatTransformNode, NavsatTransformParams
+    from navstack.localization.navsat import NavsatTransformParams
+    from navstack.nodes.ekf import EkfNode
+    from navstack.nodes.navsat import NavsatTransformNode
     from navstack.runtime.node import Runtime
     from navstack.sim.node import SimulatorNode
     from navstack.sim.robot import load_robot

@@ -61,7 +61,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
+from navstack.benchmarks.common import BenchResult, data_file
 from navstack.core.errors import PlannerError
 from navstack.core.msgs import Pose2D
 from navstack.core.polygon import Footprint
@@ -111,12 +111,10 @@ class MapSpec:
 MAPS = {"147k": MapSpec("lak303d", 0, 72, 96, 384), "344k": MapSpec("brc202d", 0, 249, 147, 587)}
 
 
-def build_costmap(data_dir: Path, spec: MapSpec) -> Costmap2D:
-    """The inflated 0.05 m costmap of a :class:`MapSpec` (origin at 0, 0)."""
-    path = data_dir / "movingai" / f"{spec.name}.map"
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: MovingAI map missing; pass the data directory that "
-                                f"holds movingai/ (see shared/data/README.md)")
+def build_costmap(data_dir: Path | None, spec: MapSpec) -> Costmap2D:
+    """The inflated 0.05 m costmap of a :class:`MapSpec` (origin at 0, 0); the map file
+    comes from :func:`data_file` (``data_dir`` first, then the shipped data)."""
+    path = data_file(f"movingai/{spec.name}.map", data_dir)
     passable = np.flipud(load_map(path))[spec.y0:spec.y0 + spec.span,
                                          spec.x0:spec.x0 + spec.span]
     idx = (np.arange(spec.size) * spec.span / spec.size).astype(int)
@@ -286,12 +284,11 @@ def run_campus(quick: bool) -> tuple[dict[str, Any], list[dict[str, Any]]]:
 
 def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
     """Run the hybrid suite (``quick``: 10 pairs per map, 3 campus goals)."""
-    root = data_dir or default_data_dir()
     n = QUICK_CASES if quick else CASES
     result = BenchResult("hybrid", show_cases=False)
     rows: list[dict[str, Any]] = []
     for i, (key, spec) in enumerate(MAPS.items()):
-        costmap = build_costmap(root, spec)
+        costmap = build_costmap(data_dir, spec)
         summary, cases = run_map(key, costmap, n, "REEDS_SHEPP", seed=11 + i)
         rows.append(summary)
         result.cases.extend(cases)

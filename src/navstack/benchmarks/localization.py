@@ -5,7 +5,7 @@ AMCL uses the packaged ``amcl:`` section throughout (docs/localization.md):
 
 * ``amcl_rmse_m`` / ``amcl_rmse_deg``: the office waypoint route (looped to
   :data:`TRACK_S` of simulated time, once per AMCL seed in :data:`TRACK_SEEDS`, samples
-  pooled) with ``NavStack(..., amcl=True)`` -- navigation runs on
+  pooled) with ``NavStack(..., localization="amcl")`` -- navigation runs on
   AMCL's ``map -> odom`` -- from the known spawn pose; every 0.5 s ``map -> base_link`` at
   the newest odometry stamp against the simulator's true pose at that stamp.
   ``amcl_nees_inside``: share of those samples whose NEES (x, y, yaw; AMCL's covariance)
@@ -108,9 +108,11 @@ def _track_once(duration: float, seed: int, errors: list[tuple[float, float, flo
     from navstack.interfaces.api import Navigator
     from navstack.interfaces.demo import default_waypoints_path
     from navstack.interfaces.stack import NavStack
+    from navstack.interfaces.stack_description import AmclLocalization
     from navstack.navigation.waypoint_follower import load_waypoints
 
-    stack = NavStack("office", "diff_drive", seed=1, amcl={"random_seed": seed})
+    stack = NavStack("office", "diff_drive", seed=1,
+                     localization=AmclLocalization({"random_seed": seed})).start()
     assert stack.amcl is not None
     amcl = stack.amcl
     nav = Navigator(stack)
@@ -166,9 +168,9 @@ def _amcl_sim(seed: int, spawn: tuple[float, float, float], params: dict[str, An
               ) -> tuple[Any, Any, Any]:
     """Runtime + simulator + map server + AMCL (no navigation), robot at ``spawn``."""
     from navstack.core.msgs import Pose2D
-    from navstack.localization.amcl.node import AmclNode
     from navstack.localization.amcl.params import AmclParams
     from navstack.navigation.map_server import MapServer
+    from navstack.nodes.amcl import AmclNode
     from navstack.runtime.node import Runtime
     from navstack.sim.node import SimulatorNode
     from navstack.sim.robot import load_robot

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from navstack.benchmarks.common import BenchResult
+from navstack.benchmarks.common import BenchResult, Progress, no_progress
 from navstack.core.errors import ConfigError, UnknownNameError
 from navstack.core.msgs import Pose2D, PoseStamped
 from navstack.runtime.config import load_yaml
@@ -235,7 +235,7 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
         world = _with_box(world, sc.block)  # in the simulator only, not on the map
     wall0 = time.perf_counter()
     stack = NavStack(world, seed=seed, spawn=sc.start, map_grid=map_grid,
-                     nav2_params=nav2_params_for(controller))
+                     nav2_params=nav2_params_for(controller)).start()
     outcome = Outcome(sc)
     ctrl = next(iter(stack.controller.controllers.values()))
     compute = ctrl.compute
@@ -247,7 +247,7 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
         finally:
             outcome.cycle_ms.append((time.perf_counter() - t0) * 1e3)
 
-    ctrl.compute = timed
+    ctrl.compute = timed  # type: ignore[method-assign]  # times this instance's cycles
     nav = Navigator(stack)
     t0 = stack.now
     loop0 = time.perf_counter()
@@ -277,13 +277,18 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
     return outcome
 
 
-def run(quick: bool, data_dir: Path | None, controller: str = "") -> BenchResult:
+def run(quick: bool, data_dir: Path | None, controller: str = "",
+        progress: Progress = no_progress) -> BenchResult:
     """The suite with ``controller`` (``dwb`` default, ``mppi``, ``rpp``) as FollowPath."""
     name = controller.lower() or "dwb"
     nav2_params_for(name)  # an unknown name fails before the first scenario
     result = BenchResult("navigation")
-    outcomes = [run_scenario(sc, seed=i, controller=name)
-                for i, sc in enumerate(scenarios(quick))]
+    todo = scenarios(quick)
+    outcomes = []
+    progress("scenarios", 0, len(todo))
+    for i, sc in enumerate(todo):
+        outcomes.append(run_scenario(sc, seed=i, controller=name))
+        progress("scenarios", i + 1, len(todo))
     cycles = [c for o in outcomes for c in o.cycle_ms]
     sim_total = sum(o.sim_time_s for o in outcomes)
     loop_total = sum(o.loop_wall_s for o in outcomes)

@@ -1,6 +1,8 @@
 """Planner suite: MovingAI optimality and per-query speed against a C++ grid A* peer.
 
-For each of the seven MovingAI maps in ``<data_dir>/movingai`` every scenario (quick
+For each of the seven MovingAI maps ``movingai/<map>.map`` (shipped in ``navstack/data``,
+or from ``--data-dir``/``NAVSTACK_DATA``: :func:`~navstack.benchmarks.common.data_file`)
+every scenario (quick
 mode: every 20th, still covering all maps and buckets) is solved with the numba kernel
 in MovingAI mode (:class:`navstack.planning.movingai.MovingAISolver`: octile costs, no
 corner cutting) and checked against the published optimal length.  A length counts as
@@ -32,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
+from navstack.benchmarks.common import BenchDataMissing, BenchResult, data_file
 from navstack.planning.movingai import MovingAISolver, Scenario, load_map, load_scen
 
 MAPS = ("arena", "den101d", "lak303d", "brc202d", "8room_000", "maze512-4-0",
@@ -122,18 +124,19 @@ def run_map(path: Path, quick: bool,
 
 
 def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
-    """Run the planner suite over the MovingAI maps in ``data_dir/movingai``."""
-    root = (data_dir or default_data_dir()) / "movingai"
+    """Run the planner suite over the MovingAI maps (found by :func:`data_file`)."""
+    paths = {name: data_file(f"movingai/{name}.map", data_dir) for name in MAPS}
+    for path in paths.values():  # fail before any work
+        scen = path.with_name(path.name + ".scen")
+        if not scen.is_file():
+            raise BenchDataMissing(f"{scen} not found: the scenarios of {path.name} must lie "
+                                   "beside it (see navstack/data/README.md)")
     peer_name, peer_factory = select_peer()
     result = BenchResult("planners")
     all_ours: list[float] = []
     all_peer: list[float] = []
     rates: list[float] = []
-    for name in MAPS:
-        path = root / f"{name}.map"
-        if not path.exists():
-            raise FileNotFoundError(f"{path}: MovingAI map missing; pass the data directory "
-                                    f"that holds movingai/ (see shared/data/README.md)")
+    for name, path in paths.items():
         row, ours, peer = run_map(path, quick, peer_factory)
         row["peer"] = peer_name
         result.cases.append(row)

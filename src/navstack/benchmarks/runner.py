@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
+from navstack.benchmarks.common import BenchResult, Progress
 from navstack.core.errors import ConfigError, UnknownNameError
 
 # suite name -> module exposing run(quick, data_dir, **options) -> BenchResult
@@ -16,6 +16,7 @@ SUITE_MODULES: dict[str, str] = {
     "sim": "navstack.benchmarks.sim",
     "planners": "navstack.benchmarks.planners",
     "costmap": "navstack.benchmarks.costmap",
+    "dwb": "navstack.benchmarks.dwb",
     "navigation": "navstack.benchmarks.navigation",
     "slam": "navstack.benchmarks.slam",
     "slam-params": "navstack.benchmarks.slam_params",
@@ -24,6 +25,8 @@ SUITE_MODULES: dict[str, str] = {
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
+    "link": "navstack.benchmarks.link",
+    "safety": "navstack.benchmarks.safety",
 }
 
 
@@ -37,11 +40,13 @@ def available_suites() -> list[str]:
 
 
 def run_suite(name: str, quick: bool = False, data_dir: Path | None = None,
-              options: Mapping[str, Any] | None = None) -> BenchResult:
+              options: Mapping[str, Any] | None = None,
+              progress: Progress | None = None) -> BenchResult:
     """Run suite ``name``; ``options`` are passed to its ``run`` as keyword arguments.
 
     An option the suite's ``run`` does not accept is a :class:`SuiteOptionError` naming
-    the suites that do, rather than silently ignored.
+    the suites that do, rather than silently ignored.  ``progress`` hears the suite's
+    stages when its ``run`` takes ``progress=``, else the suite as one stage.
     """
     module = SUITE_MODULES.get(name)
     if module is None:
@@ -57,5 +62,11 @@ def run_suite(name: str, quick: bool = False, data_dir: Path | None = None,
                 f"benchmark suite '{name}' has no option '{key}'", key_path=key,
                 suggestion=f"suites that take it: {', '.join(takers)}" if takers
                 else "no suite takes it")
-    result: BenchResult = run(quick, data_dir or default_data_dir(), **kwargs)
+    if progress is not None and "progress" in accepted:
+        kwargs["progress"] = progress
+    elif progress is not None:
+        progress(name, 0, 1)
+    result: BenchResult = run(quick, data_dir, **kwargs)
+    if progress is not None and "progress" not in accepted:
+        progress(name, 1, 1)
     return result

@@ -54,10 +54,12 @@ def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "offi
     from navstack.interfaces.api import Navigator, TaskResult
     from navstack.interfaces.demo import default_waypoints_path
     from navstack.interfaces.stack import NavStack
+    from navstack.interfaces.stack_description import SlamLocalization
     from navstack.navigation.waypoint_follower import load_waypoints
 
     nav2 = _nav2_with(costmap_overrides or {})
-    stack = NavStack(world, robot, nav2, seed=seed, slam=dict(slam or {}) or True)
+    stack = NavStack(world, robot, nav2, seed=seed,
+                     localization=SlamLocalization(dict(slam or {}))).start()
     assert stack.slam is not None
     slam_node = stack.slam
     nav = Navigator(stack)
@@ -125,12 +127,14 @@ class GoalRun:
 def run_goal(goal: tuple[float, float, float], *, slam: bool, world: str = "office",
              robot: str = "diff_drive", seed: int = 1, timeout_s: float = 300.0) -> GoalRun:
     """Drive from the spawn to ``goal`` (x, y, yaw) with ``NavStack(world, robot,
-    slam=slam)`` -- SLAM's live map, or the true map with perfect localization."""
+    localization="slam")`` (SLAM's live map) or, ``slam=False``, on the true map with
+    perfect localization."""
     from navstack.core.msgs import Pose2D, PoseStamped
     from navstack.interfaces.api import Navigator
     from navstack.interfaces.stack import NavStack
 
-    stack = NavStack(world, robot, seed=seed, slam=slam)
+    stack = NavStack(world, robot, seed=seed,
+                     localization="slam" if slam else "perfect").start()
     nav = Navigator(stack)
     start = stack.now
     if not nav.goToPose(PoseStamped.from_pose2d(Pose2D(*goal), stamp=stack.now)):

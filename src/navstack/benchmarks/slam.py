@@ -1,11 +1,12 @@
 """``navstack bench slam``: SLAM accuracy and speed on the Intel, ACES and CSAIL logs, and
 SLAM while navigating the simulated office.
 
-Each "corrected" CARMEN log in ``<data_dir>/carmen`` is run through
-:func:`navstack.mapping.offline.run_carmen` (the log profile, batch optimisation at the
-end; :func:`~navstack.mapping.offline.warm_up` first, so that loading the compiled
-kernels is not timed) and the final trajectory is scored against the log's corrected
-FLASER poses.
+Each "corrected" CARMEN log ``carmen/<name>-corrected.log.gz`` (shipped in
+``navstack/data``; :func:`~navstack.benchmarks.common.data_file` says where else it is
+looked for) is run through :func:`navstack.mapping.offline.run_carmen` (the log profile,
+batch optimisation at the end; :func:`~navstack.mapping.offline.warm_up` first, so that
+loading the compiled kernels is not timed) and the final trajectory is scored against the
+log's corrected FLASER poses.
 
 Metrics per log ``<name>`` in ``intel``, ``aces``, ``csail``:
 
@@ -21,7 +22,7 @@ Metrics per log ``<name>`` in ``intel``, ``aces``, ``csail``:
   time; left out when the log's timestamps cannot time it -- CSAIL prints them with 6
   significant digits).
 
-Simulated office (``NavStack("office", "diff_drive", slam=True)``):
+Simulated office (``NavStack("office", "diff_drive", localization="slam")``):
 
 * ``sim_ate_m`` / ``sim_map_iou`` -- the waypoint route mapped while navigating (and
   ``_no_loop`` without loop closure), ``sim_goals_reached`` / ``sim_collisions``;
@@ -43,8 +44,13 @@ import math
 import time
 from pathlib import Path
 
-from navstack.benchmarks.common import BenchResult, default_data_dir
-from navstack.core.errors import NavstackError
+from navstack.benchmarks.common import (
+    BenchDataMissing,
+    BenchResult,
+    Progress,
+    data_file,
+    no_progress,
+)
 from navstack.mapping.offline import run_carmen, warm_up
 from navstack.mapping.slam_outputs import metrics
 
@@ -76,32 +82,29 @@ PEER_NOTE = ("peer (context only, not run): Cartographer 13 ms/scan on Intel (13
              "original ground truth; no peer SLAM library is installable here")
 
 
-class BenchDataMissing(NavstackError, FileNotFoundError):
-    """A benchmark's input data is not where it was looked for."""
+def log_path(data_dir: Path | None, name: str) -> Path:
+    """``carmen/<name>-corrected.log.gz`` from the data folders (:func:`data_file`);
+    raises :class:`BenchDataMissing` naming the file and the folders searched."""
+    return data_file(f"carmen/{name}-corrected.log.gz", data_dir)
 
 
-def log_path(data_dir: Path, name: str) -> Path:
-    """``<data_dir>/carmen/<name>-corrected.log.gz``; raises :class:`BenchDataMissing`."""
-    folder = data_dir / "carmen"
-    path = folder / f"{name}-corrected.log.gz"
-    if not path.is_file():
-        where = folder if folder.is_dir() else data_dir
-        raise BenchDataMissing(
-            f"CARMEN log {path.name} not found in {where}: pass --data-dir with the folder "
-            "that holds carmen/ (the shared data, ../shared/data; see its README) or set "
-            "NAVSTACK_DATA")
-    return path
+def _prefixed(progress: Progress, prefix: str) -> Progress:
+    def report(stage: str, done: int, total: int) -> None:
+        progress(f"{prefix} {stage}", done, total)
+
+    return report
 
 
-def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
+def run(quick: bool, data_dir: Path | None = None,
+        progress: Progress = no_progress) -> BenchResult:
     """Run SLAM on the three logs and in the office; metrics as in the module docstring."""
-    root = data_dir or default_data_dir()
-    paths = {name: log_path(root, name) for name in LOGS}  # fail before any work
+    paths = {name: log_path(data_dir, name) for name in LOGS}  # fail before any work
     warm_up()
     result = BenchResult("slam")
     m = result.metrics
     for name, path in paths.items():
-        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None)
+        res = run_carmen(path, max_scans=QUICK_SCANS if quick else None,
+                         progress=_prefixed(progress, name))
         if res.rpe is None:
             raise BenchDataMissing(f"{path}: no reference poses (not an anchored 'corrected' "
                                    "log), cannot score it")
@@ -125,7 +128,9 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         if res.speedup is None:
             result.notes.append(f"{name}: timestamps too coarse to give the log duration "
                                 f"({name}_speedup left out)")
+    progress("simulated mapping", 0, 1)
     _run_sim(result, quick)
+    progress("simulated mapping", 1, 1)
     scope = (f"quick: first {QUICK_SCANS} scans of each log, the first two office goals, "
              "budgets not checked" if quick
              else "full logs (log profile), batch optimisation at the end")

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from navstack.benchmarks.common import BenchResult
+from navstack.benchmarks.common import BenchResult, Progress, no_progress
 
 ROUTE = ("Goal_3", "Goal_4")
 #: parameter -> values tried (the default is the baseline row)
@@ -37,7 +37,8 @@ COSTMAP_SWEEP: dict[str, tuple[float, ...]] = {
 }
 
 
-def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
+def run(quick: bool, data_dir: Path | None = None,
+        progress: Progress = no_progress) -> BenchResult:
     """One baseline run plus one run per swept value (``data_dir`` is not used)."""
     from navstack.benchmarks.sim_mapping import run_sim_mapping
 
@@ -48,7 +49,8 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         runs += [(name, v, {name: v}, {}) for v in values[: 1 if quick else None]]
     for name, values in COSTMAP_SWEEP.items():
         runs += [(name, v, {}, {name: v}) for v in values[: 1 if quick else None]]
-    for name, value, slam, costmap in runs:
+    for i, (name, value, slam, costmap) in enumerate(runs):
+        progress("parameter runs", i, len(runs))
         t0 = time.perf_counter()
         run_ = run_sim_mapping(slam, goals=route, costmap_overrides=costmap)
         wall = time.perf_counter() - t0
@@ -62,6 +64,7 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         key = "baseline" if name == "baseline" else f"{name}={value:g}"
         result.metrics[f"{key}:map_error"] = 1.0 - run_.map.iou
         result.metrics[f"{key}:mapping_time_s"] = run_.sim_time_s
+    progress("parameter runs", len(runs), len(runs))
     result.notes += [
         f"route {' -> '.join(route)} in the office, seed 1; one parameter changed per row",
         "map_error = 1 - IoU of occupied cells (0.05 m, 1 cell tolerance); completeness = "

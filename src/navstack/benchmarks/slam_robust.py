@@ -195,7 +195,7 @@ def map_world(sim: SimLog) -> tuple[OfflineResult, MapScore]:
     return result, occupancy_iou(grid.to_occupancy_grid(crop=True), truth)
 
 
-def run(quick: bool, data_dir: Path) -> BenchResult:
+def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
     """The edited logs and the simulated worlds; metrics as in the module docstring."""
     paths = {name: log_path(data_dir, name) for name in LOGS}  # fail before any work
     warm_up()

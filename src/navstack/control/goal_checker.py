@@ -15,9 +15,10 @@ import math
 from pydantic import Field
 
 from navstack.core.geometry import angle_diff, normalize_angle
+from navstack.core.interfaces import GoalChecker
 from navstack.core.msgs import Pose2D, Twist2D
 from navstack.core.params import Params
-from navstack.core.registry import PluginRegistry
+from navstack.core.plugins import GOAL_CHECKERS, register_goal_checker
 
 
 class SimpleGoalCheckerParams(Params):
@@ -38,11 +39,16 @@ class StoppedGoalCheckerParams(SimpleGoalCheckerParams):
     rot_stopped_velocity: float = Field(0.25, ge=0.0)
 
 
-class SimpleGoalChecker:
+@register_goal_checker("SimpleGoalChecker", nav2=("nav2_controller::SimpleGoalChecker",
+                                                  "dwb_plugins::SimpleGoalChecker"))
+class SimpleGoalChecker(GoalChecker):
     """Position within ``xy_goal_tolerance`` (latched if ``stateful``), yaw within tolerance."""
 
+    params_model = SimpleGoalCheckerParams
+    params: SimpleGoalCheckerParams
+
     def __init__(self, params: SimpleGoalCheckerParams | None = None) -> None:
-        self.params = params or SimpleGoalCheckerParams()
+        super().__init__(params)
         self.check_xy = True
 
     def reset(self) -> None:
@@ -63,10 +69,13 @@ class SimpleGoalChecker:
         return dyaw <= p.yaw_goal_tolerance
 
 
+@register_goal_checker("StoppedGoalChecker", nav2=("nav2_controller::StoppedGoalChecker",
+                                                   "dwb_plugins::StoppedGoalChecker"))
 class StoppedGoalChecker(SimpleGoalChecker):
     """:class:`SimpleGoalChecker` plus ``|wz| <= rot_stopped_velocity`` and
     ``hypot(vx, vy) <= trans_stopped_velocity``."""
 
+    params_model = StoppedGoalCheckerParams
     params: StoppedGoalCheckerParams
 
     def __init__(self, params: StoppedGoalCheckerParams | None = None) -> None:
@@ -80,12 +89,5 @@ class StoppedGoalChecker(SimpleGoalChecker):
                 and math.hypot(velocity.vx, velocity.vy) <= p.trans_stopped_velocity)
 
 
-GOAL_CHECKERS: PluginRegistry[type[SimpleGoalChecker]] = PluginRegistry("goal checker")
-GOAL_CHECKERS.register("SimpleGoalChecker", SimpleGoalChecker,
-                       aliases=("nav2_controller::SimpleGoalChecker",
-                                "nav2_controller/SimpleGoalChecker",
-                                "dwb_plugins::SimpleGoalChecker"))
-GOAL_CHECKERS.register("StoppedGoalChecker", StoppedGoalChecker,
-                       aliases=("nav2_controller::StoppedGoalChecker",
-                                "nav2_controller/StoppedGoalChecker",
-                                "dwb_plugins::StoppedGoalChecker"))
+__all__ = ["GOAL_CHECKERS", "SimpleGoalChecker", "SimpleGoalCheckerParams", "StoppedGoalChecker",
+           "StoppedGoalCheckerParams"]

@@ -12,6 +12,10 @@
 
 ``False`` means "no progress for too long".  Time is the caller's ``now`` [s] (sim or
 wall clock), never read behind its back; a clock going backwards restarts the baseline.
+All three implement :class:`navstack.core.interfaces.ProgressChecker`; the controller
+server passes the goal (in the pose's frame) to every ``check``, which only the goal
+checker uses: a goal that moved by more than ``progress_epsilon`` (a new goal, not the
+re-transform of the same one) restarts its baseline.
 """
 
 from __future__ import annotations
@@ -21,9 +25,10 @@ import math
 from pydantic import Field
 
 from navstack.core.geometry import angle_diff
+from navstack.core.interfaces import ProgressChecker
 from navstack.core.msgs import Pose2D
 from navstack.core.params import Params
-from navstack.core.registry import PluginRegistry
+from navstack.core.plugins import PROGRESS_CHECKERS, register_progress_checker
 
 
 class SimpleProgressCheckerParams(Params):
@@ -49,11 +54,16 @@ class GoalProgressCheckerParams(Params):
     dwell_time: float = Field(10.0, gt=0.0)
 
 
-class SimpleProgressChecker:
+@register_progress_checker("SimpleProgressChecker",
+                           nav2="nav2_controller::SimpleProgressChecker")
+class SimpleProgressChecker(ProgressChecker):
     """Movement of more than ``required_movement_radius`` within the time allowance."""
 
+    params_model = SimpleProgressCheckerParams
+    params: SimpleProgressCheckerParams
+
     def __init__(self, params: SimpleProgressCheckerParams | None = None) -> None:
-        self.params = params or SimpleProgressCheckerParams()
+        super().__init__(params)
         self.baseline_pose: Pose2D | None = None
         self.baseline_time = 0.0
 
@@ -64,18 +74,26 @@ class SimpleProgressChecker:
     def _moved_enough(self, pose: Pose2D, baseline: Pose2D) -> bool:
         return pose.distance_to(baseline) > self.params.required_movement_radius
 
-    def check(self, pose: Pose2D, now: float) -> bool:
-        """True while progressing; False once stuck longer than the allowance."""
+    def check(self, pose: Pose2D, now: float, goal: Pose2D | None = None) -> bool:
+        """True while progressing; False once stuck longer than the allowance (``goal``
+        is not used)."""
         base = self.baseline_pose
         if base is None or now < self.baseline_time or self._moved_enough(pose, base):
             self.baseline_pose, self.baseline_time = pose, now
             return True
         return now - self.baseline_time <= self.params.movement_time_allowance
 
+    def failure_message(self) -> str:
+        p = self.params
+        return (f"moved less than {p.required_movement_radius:.2f} m in "
+                f"{p.movement_time_allowance:.1f} s")
 
+
+@register_progress_checker("PoseProgressChecker", nav2="nav2_controller::PoseProgressChecker")
 class PoseProgressChecker(SimpleProgressChecker):
     """Also counts a heading change above ``required_movement_angle`` as progress."""
 
+    params_model = PoseProgressCheckerParams
     params: PoseProgressCheckerParams
 
     def __init__(self, params: PoseProgressCheckerParams | None = None) -> None:
@@ -86,13 +104,22 @@ class PoseProgressChecker(SimpleProgressChecker):
                 or abs(angle_diff(pose.theta, baseline.theta))
                 > self.params.required_movement_angle)
 
+    def failure_message(self) -> str:
+        p = self.params
+        return (f"moved less than {p.required_movement_radius:.2f} m and turned less than "
+                f"{p.required_movement_angle:.2f} rad in {p.movement_time_allowance:.1f} s")
 
-class GoalProgressChecker:
+
+@register_progress_checker("GoalProgressChecker", nav2="navstack::GoalProgressChecker")
+class GoalProgressChecker(ProgressChecker):
     """Distance-to-goal must shrink by ``progress_epsilon`` at least every ``dwell_time``."""
+
+    params_model = GoalProgressCheckerParams
+    params: GoalProgressCheckerParams
 
     def __init__(self, params: GoalProgressCheckerParams | None = None,
                  goal: Pose2D | None = None) -> None:
-        self.params = params or GoalProgressCheckerParams()
+        super().__init__(params)
         self.goal = goal
         self.baseline_distance: float | None = None
         self.baseline_time = 0.0
@@ -106,8 +133,10 @@ class GoalProgressChecker:
         self.baseline_distance = None
 
     def check(self, pose: Pose2D, now: float, goal: Pose2D | None = None) -> bool:
-        """True while the goal distance keeps dropping; ``goal`` overrides :meth:`set_goal`."""
-        if goal is not None and goal != self.goal:
+        """True while the goal distance keeps dropping; ``goal`` overrides :meth:`set_goal`
+        (a goal within ``progress_epsilon`` of the current one is the same goal)."""
+        if goal is not None and (self.goal is None or math.hypot(
+                goal.x - self.goal.x, goal.y - self.goal.y) > self.params.progress_epsilon):
             self.set_goal(goal)
         if self.goal is None:
             raise ValueError("GoalProgressChecker.check needs a goal: call set_goal(goal) "
@@ -119,14 +148,12 @@ class GoalProgressChecker:
             return True
         return now - self.baseline_time <= self.params.dwell_time
 
+    def failure_message(self) -> str:
+        p = self.params
+        return (f"the distance to the goal shrank by less than {p.progress_epsilon:.2f} m in "
+                f"{p.dwell_time:.1f} s")
 
-PROGRESS_CHECKERS: PluginRegistry[type[SimpleProgressChecker] | type[GoalProgressChecker]] = (
-    PluginRegistry("progress checker"))
-PROGRESS_CHECKERS.register("SimpleProgressChecker", SimpleProgressChecker,
-                           aliases=("nav2_controller::SimpleProgressChecker",
-                                    "nav2_controller/SimpleProgressChecker"))
-PROGRESS_CHECKERS.register("PoseProgressChecker", PoseProgressChecker,
-                           aliases=("nav2_controller::PoseProgressChecker",
-                                    "nav2_controller/PoseProgressChecker"))
-PROGRESS_CHECKERS.register("GoalProgressChecker", GoalProgressChecker,
-                           aliases=("navstack::GoalProgressChecker",))
+
+__all__ = ["PROGRESS_CHECKERS", "GoalProgressChecker", "GoalProgressCheckerParams",
+           "PoseProgressChecker", "PoseProgressCheckerParams", "SimpleProgressChecker",
+           "SimpleProgressCheckerParams"]

@@ -169,3 +169,8 @@ class InvalidPath(ControllerError):
 
 class PatienceExceeded(ControllerError):
     """The controller failed for longer than its failure tolerance."""
+
+
+# --- behaviors -------------------------------------------------------------------------
+class InvalidBehaviorGoal(NavstackError, ValueError):
+    """A behavior goal field is out of range (Nav2 ``INVALID_INPUT``)."""

@@ -14,6 +14,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 TWO_PI = 2.0 * math.pi
+MAX_COORDINATE = 1e8
+"""Largest |coordinate| [m] a goal or waypoint may have: beyond any map frame (UTM
+northings reach 1e7 m, the Earth's circumference is 4e7 m); 1e300 is a typo, not a goal."""
 FloatArray = NDArray[np.float64]
 AngleT = TypeVar("AngleT", float, FloatArray)
 

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,19 @@ __all__ = ["MODES", "MapFileError", "MapImage", "load_map", "load_map_yaml", "re
 
 
 # --- image reading ------------------------------------------------------------------
+MAX_MAP_PIXELS = 40_000_000
+"""Largest map image navstack loads (e.g. 6000 x 6000 px: 300 m x 300 m at 5 cm, 1.2 km
+at 20 cm).  Every layer of a costmap and the simulator's grids hold one or more arrays of
+this size, so a larger map would take gigabytes and minutes per update; larger areas
+need a coarser resolution or a split map.  Checked from the header, before decoding."""
+
+
+def _check_size(path: Path, width: int, height: int) -> None:
+    if width * height > MAX_MAP_PIXELS:
+        raise MapFileError(
+            f"{path}: map image is {width} x {height} = {width * height:,} pixels, more than "
+            f"the limit of {MAX_MAP_PIXELS:,} (e.g. 6000 x 6000); use a coarser resolution "
+            f"or split the map")
 class MapImage:
     """A map image as grey values in 0..255 (float64, row 0 = top) plus alpha (0..255)."""
 
@@ -96,6 +110,7 @@ def _pnm_header(buf: bytes, path: Path) -> tuple[bytes, int, int, int, int]:
 def _read_pgm(path: Path, buf: bytes) -> MapImage:
     """Netpbm P2 (ASCII) / P5 (binary) greymap, 8 or 16 bit, parsed with numpy."""
     magic, width, height, maxval, offset = _pnm_header(buf, path)
+    _check_size(path, width, height)
     count = width * height
     if magic == b"P5":
         dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
@@ -125,7 +140,11 @@ def _read_pillow(path: Path) -> MapImage:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as opened:
+        with warnings.catch_warnings():  # Pillow's bomb warning: _check_size says more
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            opened = Image.open(path)
+        with opened:
+            _check_size(path, *opened.size)
             opened.load()
             img: Image.Image = opened
             mode = img.mode
@@ -135,7 +154,8 @@ def _read_pillow(path: Path) -> MapImage:
                 img = img.convert("RGB" if mode != "1" else "L")
             arr = np.asarray(img)
             mode = img.mode
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError,
+            Image.DecompressionBombError) as exc:
         raise MapFileError(f"{path}: cannot read map image ({exc}); re-save it as an 8-bit "
                            "grayscale PGM or PNG") from None
     if mode.startswith("I") or mode == "F":  # 16/32-bit grey
@@ -154,6 +174,11 @@ def _read_pillow(path: Path) -> MapImage:
 def read_image(path: Path) -> MapImage:
     """Read a map image: P2/P5 PGM with numpy, everything else with Pillow."""
     try:
+        size = path.stat().st_size
+        if size > 4 * MAX_MAP_PIXELS + 2**20:  # even a 16-bit PGM at the limit is smaller
+            raise MapFileError(f"{path}: map image file is {size:,} bytes, larger than any "
+                               f"map of at most {MAX_MAP_PIXELS:,} pixels; use a coarser "
+                               f"resolution or split the map")
         buf = path.read_bytes()
     except FileNotFoundError:
         raise MapFileError(f"{path}: image file not found") from None

@@ -37,7 +37,7 @@ from pydantic import Field
 from navstack.core.params import Params
 from navstack.costmap.costmap_2d import Costmap2D
 from navstack.costmap.inflation_kernel import cell_distance, cost_lut, inflate
-from navstack.costmap.layer import Bounds, CellWindow, Layer, LayerParams
+from navstack.costmap.layer import Bounds, CellWindow, Layer, LayerParams, register_layer
 
 
 class UncertaintyInflationParams(Params):
@@ -77,10 +77,11 @@ def uncertainty_radius(cov_xy: ArrayLike, alpha: float) -> float:
     return math.sqrt(max(lam_max, 0.0) * chi2_ppf_2dof(alpha))
 
 
+@register_layer("InflationLayer", nav2="nav2_costmap_2d::InflationLayer")
 class InflationLayer(Layer):
     """Exponential cost decay around lethal cells; see the module docstring."""
 
-    params_type = InflationLayerParams
+    params_model = InflationLayerParams
     params: InflationLayerParams
 
     def __init__(self, name: str = "inflation_layer",

@@ -16,11 +16,22 @@ into the master with one of Nav2's combination methods:
 * ``max_without_unknown_overwrite`` - as ``max`` but unknown master cells are left
   unknown (``combination_method: 2``);
 * ``addition`` - ``master + layer`` capped at ``MAX_NON_OBSTACLE``.
+
+:class:`Layer` is the costmap plugin interface (Nav2 keeps ``Layer`` in
+``nav2_costmap_2d`` too, not in ``nav2_core``): a subclass sets ``params_model`` and
+overrides the hooks, and :func:`register_layer` registers it in :data:`COSTMAP_LAYERS`
+under its name and Nav2 type, so a costmap's ``plugins`` can name it::
+
+    @register_layer("MyLayer", nav2="my_pkg::MyLayer")
+    class MyLayer(Layer):
+        params_model = MyLayerParams
+        def update_costs(self, master, window): ...
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Self
 
@@ -28,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.params import Params
+from navstack.core.registry import ClassRegistry, builtin_table
 from navstack.costmap.costmap_2d import (
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
@@ -103,15 +115,19 @@ class LayerParams(Params):
 
 
 class Layer:
-    """Base class of costmap plugins.  Subclasses set ``params_type`` and override hooks."""
+    """Base class of costmap plugins (Nav2 ``nav2_costmap_2d::Layer``).
 
-    params_type: ClassVar[type[LayerParams]] = LayerParams
+    Subclasses set ``params_model`` (a :class:`LayerParams` subclass: the layer's YAML
+    section) and override the hooks; construction is ``cls(name, params)``.
+    """
+
+    params_model: ClassVar[type[LayerParams]] = LayerParams
     clearable: ClassVar[bool] = False
     """Whether Nav2's clear-costmap services reset this layer (obstacle-type layers)."""
 
     def __init__(self, name: str, params: LayerParams | None = None) -> None:
         self.name = name
-        self.params = params if params is not None else self.params_type()
+        self.params = params if params is not None else self.params_model()
         self.enabled = self.params.enabled
         self.layered: LayeredCostmap | None = None
         self.current = False
@@ -123,7 +139,7 @@ class Layer:
                      key_path: str = "") -> Self:
         """Build from a Nav2 YAML plugin dict (the ``plugin`` key is ignored here)."""
         mapping = {k: v for k, v in (data or {}).items() if k != "plugin"}
-        return cls(name, cls.params_type.from_mapping(mapping, file=file,
+        return cls(name, cls.params_model.from_mapping(mapping, file=file,
                                                       key_path=key_path or name))
 
     # --- lifecycle ---------------------------------------------------------------------
@@ -159,6 +175,27 @@ class Layer:
 
     def update_costs(self, master: Costmap2D, window: CellWindow) -> None:
         """Write this layer's contribution into ``master`` inside ``window``."""
+
+
+COSTMAP_LAYERS: ClassRegistry[Layer] = ClassRegistry(
+    "costmap layer", Layer, builtin_table({
+        "navstack.costmap.static_layer": ("StaticLayer", "nav2_costmap_2d::StaticLayer"),
+        "navstack.costmap.obstacle_layer": ("ObstacleLayer", "nav2_costmap_2d::ObstacleLayer",
+                                            "VoxelLayer", "nav2_costmap_2d::VoxelLayer"),
+        "navstack.costmap.inflation_layer": ("InflationLayer",
+                                             "nav2_costmap_2d::InflationLayer"),
+        "navstack.costmap.keepout_filter": ("KeepoutFilter", "nav2_costmap_2d::KeepoutFilter"),
+        "navstack.costmap.speed_filter": ("SpeedFilter", "nav2_costmap_2d::SpeedFilter"),
+    }))
+"""Costmap layers and filters by name, with their Nav2 types (``nav2_costmap_2d::...``)
+as aliases; built-in ones are imported on first lookup."""
+
+
+def register_layer(name: str, nav2: str | Iterable[str] = (), aliases: Iterable[str] = ()
+                   ) -> Callable[[type[Layer]], type[Layer]]:
+    """Class decorator: register a costmap layer (or filter) as ``name`` and both
+    spellings of its Nav2 type ``nav2`` (``"pkg::Class"``)."""
+    return COSTMAP_LAYERS.plugin(name, nav2=nav2, aliases=aliases)
 
 
 class CostmapLayer(Layer):

@@ -30,7 +30,14 @@ from navstack.core.errors import ConfigError, UnknownNameError
 from navstack.core.msgs import LaserScan, Pose2D
 from navstack.costmap.costmap_2d import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
 from navstack.costmap.footprint import set_polygon_cost, transform_footprint
-from navstack.costmap.layer import Bounds, CellWindow, CostmapLayer, LayerParams, combine
+from navstack.costmap.layer import (
+    Bounds,
+    CellWindow,
+    CostmapLayer,
+    LayerParams,
+    combine,
+    register_layer,
+)
 from navstack.costmap.observation_buffer import (
     Observation,
     ObservationBuffer,
@@ -68,10 +75,11 @@ class ObstacleLayerParams(LayerParams):
         return src.split() if isinstance(src, str) else list(src)
 
 
+@register_layer("ObstacleLayer", nav2="nav2_costmap_2d::ObstacleLayer")
 class ObstacleLayer(CostmapLayer):
     """Marks sensor returns LETHAL and clears free space by ray tracing."""
 
-    params_type: ClassVar[type[LayerParams]] = ObstacleLayerParams
+    params_model: ClassVar[type[LayerParams]] = ObstacleLayerParams
     clearable = True
     params: ObstacleLayerParams
 
@@ -103,7 +111,7 @@ class ObstacleLayer(CostmapLayer):
         raw = data.get("observation_sources", "")
         names = raw.split() if isinstance(raw, str) else [str(s) for s in raw]
         src_dicts = {n: data.pop(n) for n in names if n in data}
-        params = cls.params_type.from_mapping(data, file=file, key_path=path)
+        params = cls.params_model.from_mapping(data, file=file, key_path=path)
         assert isinstance(params, ObstacleLayerParams)
         sources = {n: ObservationSourceParams.from_mapping(d, file=file,
                                                            key_path=f"{path}.{n}")
@@ -257,6 +265,7 @@ class VoxelLayerParams(ObstacleLayerParams):
     publish_voxel_map: bool = False
 
 
+@register_layer("VoxelLayer", nav2="nav2_costmap_2d::VoxelLayer")
 class VoxelLayer(ObstacleLayer):
     """``nav2_costmap_2d::VoxelLayer`` served by the 2D obstacle layer.
 
@@ -269,7 +278,7 @@ class VoxelLayer(ObstacleLayer):
     and ``publish_voxel_map`` are accepted for compatibility and have no effect.
     """
 
-    params_type: ClassVar[type[LayerParams]] = VoxelLayerParams
+    params_model: ClassVar[type[LayerParams]] = VoxelLayerParams
     params: VoxelLayerParams
 
     def _mark(self, obs: Observation, bounds: Bounds) -> None:

@@ -1,45 +1,32 @@
-"""Registry of costmap layers and filters, with Nav2 plugin strings as aliases.
+"""Building costmap layers and filters from their Nav2 YAML sections.
 
-``COSTMAP_LAYERS.get("nav2_costmap_2d::InflationLayer")`` returns
-:class:`~navstack.costmap.inflation_layer.InflationLayer`; the ROS 1 style
-``nav2_costmap_2d/InflationLayer`` is accepted too.  ``nav2_costmap_2d::VoxelLayer``
-maps to :class:`~navstack.costmap.obstacle_layer.VoxelLayer`, a 2D obstacle layer that
-honours the voxel column's height limits (see its docstring for what differs).
+Layers register themselves in :data:`~navstack.costmap.layer.COSTMAP_LAYERS` with
+:func:`~navstack.costmap.layer.register_layer` (name plus Nav2 type, e.g.
+``nav2_costmap_2d::InflationLayer``; the ROS 1 style ``nav2_costmap_2d/InflationLayer``
+is accepted too).  ``nav2_costmap_2d::VoxelLayer`` maps to
+:class:`~navstack.costmap.obstacle_layer.VoxelLayer`, a 2D obstacle layer that honours
+the voxel column's height limits (see its docstring for what differs).
 """
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
-from navstack.core.errors import ConfigError
-from navstack.core.registry import PluginRegistry
-from navstack.costmap.inflation_layer import InflationLayer
-from navstack.costmap.keepout_filter import KeepoutFilter
-from navstack.costmap.layer import Layer
-from navstack.costmap.obstacle_layer import ObstacleLayer, VoxelLayer
-from navstack.costmap.speed_filter import SpeedFilter
-from navstack.costmap.static_layer import StaticLayer
-
-COSTMAP_LAYERS: PluginRegistry[type[Layer]] = PluginRegistry("costmap layer")
-
-for _cls in (StaticLayer, ObstacleLayer, VoxelLayer, InflationLayer, KeepoutFilter,
-             SpeedFilter):
-    _name = _cls.__name__
-    COSTMAP_LAYERS.register(_name, _cls, aliases=(f"nav2_costmap_2d::{_name}",
-                                                  f"nav2_costmap_2d/{_name}"))
+from navstack.core.errors import ConfigError, PluginError, UnknownNameError, did_you_mean
+from navstack.costmap.layer import COSTMAP_LAYERS, Layer
 
 NAV2_DEFAULT_PLUGINS = ["static_layer", "obstacle_layer", "inflation_layer"]
 NAV2_DEFAULT_TYPES = {"static_layer": "nav2_costmap_2d::StaticLayer",
                       "obstacle_layer": "nav2_costmap_2d::ObstacleLayer",
                       "inflation_layer": "nav2_costmap_2d::InflationLayer"}
 
+__all__ = ["COSTMAP_LAYERS", "NAV2_DEFAULT_PLUGINS", "NAV2_DEFAULT_TYPES",
+           "known_plugin_strings", "layer_from_nav2"]
+
 
 def known_plugin_strings() -> list[str]:
-    """Every accepted ``plugin:`` value (names and Nav2 aliases)."""
-    names = COSTMAP_LAYERS.names()
-    return sorted({*names, *(f"nav2_costmap_2d::{n}" for n in names),
-                   *(f"nav2_costmap_2d/{n}" for n in names)})
+    """Every accepted ``plugin:`` value (names and Nav2 types, both spellings)."""
+    return COSTMAP_LAYERS.all_names()
 
 
 def layer_from_nav2(name: str, data: dict[str, Any] | None, *, file: str = "",
@@ -51,13 +38,14 @@ def layer_from_nav2(name: str, data: dict[str, Any] | None, *, file: str = "",
         raise ConfigError("required key is missing", file=file, key_path=f"{name}.plugin",
                           suggestion="e.g. plugin: \"nav2_costmap_2d::InflationLayer\"")
     plugin = str(plugin)
-    if plugin not in COSTMAP_LAYERS:
-        known = known_plugin_strings()
-        close = difflib.get_close_matches(plugin, known, n=1, cutoff=0.6)
-        hint = f"did you mean '{close[0]}'?" if close else ""
+    try:
+        cls = COSTMAP_LAYERS.get(plugin)
+    except UnknownNameError:
+        hint = did_you_mean(plugin, known_plugin_strings()).strip(" ()")
         hint += ("; " if hint else "") + "known: " + ", ".join(
-            f"nav2_costmap_2d::{n}" for n in COSTMAP_LAYERS.names())
+            n for n in known_plugin_strings() if "::" in n)
         raise ConfigError(f"unknown costmap plugin '{plugin}'", file=file,
-                          key_path=f"{name}.plugin", suggestion=hint)
-    cls = COSTMAP_LAYERS.get(plugin)
+                          key_path=f"{name}.plugin", suggestion=hint) from None
+    except PluginError as exc:
+        raise ConfigError(str(exc), file=file, key_path=f"{name}.plugin") from None
     return cls.from_mapping(name, data, file=file, key_path=name)

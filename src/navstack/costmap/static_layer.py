@@ -35,7 +35,7 @@ from navstack.costmap.costmap_2d import (
 )
 from navstack.costmap.footprint import polygon_cells, transform_footprint
 from navstack.costmap.grid_sampling import points_to_cells, sample_window
-from navstack.costmap.layer import Bounds, CellWindow, Layer, LayerParams
+from navstack.costmap.layer import Bounds, CellWindow, Layer, LayerParams, register_layer
 
 if TYPE_CHECKING:
     from navstack.costmap.layered_costmap import LayeredCostmap
@@ -69,10 +69,11 @@ def translate_occupancy(data: ArrayLike, lethal_cost_threshold: int = 100,
     return out.astype(np.uint8)
 
 
+@register_layer("StaticLayer", nav2="nav2_costmap_2d::StaticLayer")
 class StaticLayer(Layer):
     """Copies the translated map into the master grid."""
 
-    params_type = StaticLayerParams
+    params_model = StaticLayerParams
     params: StaticLayerParams
 
     def __init__(self, name: str = "static_layer",

@@ -42,10 +42,11 @@ _RESULT = {GoalStatus.SUCCEEDED: TaskResult.SUCCEEDED, GoalStatus.CANCELED: Task
 
 
 class Navigator:
-    """Drive a running :class:`NavStack` the way BasicNavigator drives Nav2."""
+    """Drive a :class:`NavStack` the way BasicNavigator drives Nav2 (it is started here if
+    it was not yet, like a Nav2 launch brought up before the commander script runs)."""
 
     def __init__(self, stack: NavStack | None = None, spin_period: float = 0.1) -> None:
-        self.stack = stack or NavStack()
+        self.stack = (stack if stack is not None else NavStack()).start()
         self.spin_period = spin_period
         bus = self.stack.runtime.bus
         self._nav_to_pose: ActionClient[m.NavigateToPoseGoal] = ActionClient(
@@ -61,6 +62,7 @@ class Navigator:
     def _start(self, client: ActionClient[Any], goal: Any) -> bool:
         if self._task is not None and not self._task.done:
             self._task.cancel()
+        self.last_error = ""
         try:
             self._task = client.send_goal(goal)
         except NavstackError as exc:

@@ -4,7 +4,15 @@
 corridor, costmaps, NavFn planner, DWB controller, BT navigator with recoveries), sends
 one NavigateToPose goal per waypoint in the order of the waypoint file, shows live
 progress, and writes ``report.json``, ``report.md`` and ``trajectory.png`` to ``--out``.
-Success means every goal SUCCEEDED and the robot never touched anything.
+Success means every goal SUCCEEDED, the robot never touched anything and, when the Nav2
+parameters declare costmap filter zones (the golf cart's campus does), no plan and no part
+of the body entered a keepout zone and the true speed in each speed zone stayed within its
+cap + 5 % (:mod:`navstack.interfaces.zones`).
+
+``link`` ("udp" for the rover, "serial" for the golf cart) runs the same mission through
+the robot's vehicle link: the stack drives a simulated vehicle over a real socket / pty
+(:mod:`navstack.interfaces.hil`), and the report adds the link's figures (command
+latency, packets, malformed, losses).
 """
 
 from __future__ import annotations
@@ -13,7 +21,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path as FsPath
@@ -23,10 +31,12 @@ import numpy as np
 
 from navstack.core.msgs import Path, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
+from navstack.interfaces.hil import LinkKind, hil_stack
 from navstack.interfaces.plots import plot_trajectory
 from navstack.interfaces.stack import NavStack
+from navstack.interfaces.zones import ZoneMonitor, zone_lines, zone_overlays, zones_respected
 from navstack.navigation.waypoint_follower import load_waypoints
-from navstack.sim.collision import footprint_clearance
+from navstack.sim.collision import CLEARANCE_CAP, footprint_clearances
 
 
 def _config(name: str) -> FsPath:
@@ -41,7 +51,7 @@ def default_waypoints_path() -> FsPath:
 class DemoSetup:
     """What ``navstack demo --robot NAME`` runs when world, waypoints and Nav2 parameters
     are not given: the flagship office mission for indoor robots, the campus route with
-    Hybrid-A* + MPPI for the golf cart."""
+    Hybrid-A* + MPPI for the golf cart, a campus route with NavFn + DWB for the rover."""
 
     world: str
     waypoints: FsPath
@@ -52,6 +62,9 @@ def demo_setup(robot: str) -> DemoSetup:
     if robot == "golf_cart":
         return DemoSetup("campus", _config("campus_waypoints.yaml"),
                          _config("golf_cart_nav2_params.yaml"))
+    if robot == "rover":
+        return DemoSetup("campus", _config("rover_campus_waypoints.yaml"),
+                         _config("rover_nav2_params.yaml"))
     return DemoSetup("office", default_waypoints_path(), None)
 
 
@@ -66,19 +79,20 @@ class GoalRecord:
     reason: str = ""
 
 
-CLEARANCE_CAP = 3.0
-"""Clearances beyond this [m] are reported as this value."""
-
-
 @dataclass
 class TrajectoryRecorder:
-    """Samples the true robot pose and its clearance at a fixed rate: the distance from
-    the body's footprint outline to the nearest wall, furniture or walker (0 on contact;
-    a circle about the reference point would undercount a long vehicle by metres)."""
+    """Samples the true robot pose and its clearances at a fixed rate.
+
+    Clearance (one definition with ``navstack report``, see docs/recording.md): the
+    distance from the body's footprint outline to the nearest static obstacle (wall,
+    furniture: occupied map cells) and, separately, to the nearest moving obstacle
+    (walker); 0 on contact.  A circle about the reference point would undercount a long
+    vehicle by metres."""
 
     stack: NavStack
     rows: list[tuple[float, float, float, float]] = field(default_factory=list)
-    min_clearance: float = math.inf
+    min_static: float = math.inf
+    min_moving: float | None = None
 
     def sample(self) -> None:
         sim = self.stack.sim
@@ -86,8 +100,18 @@ class TrajectoryRecorder:
         p = sim.sim.pose
         self.rows.append((self.stack.now, p.x, p.y, p.theta))
         body = sim.sim.footprint.at((p.x, p.y, p.theta))  # the physical body's outline
-        c = footprint_clearance(self.stack.world, body, sim.sim.obstacle_clocks, CLEARANCE_CAP)
-        self.min_clearance = min(self.min_clearance, c)
+        static, moving = footprint_clearances(self.stack.world, body,
+                                              sim.sim.obstacle_clocks, CLEARANCE_CAP)
+        self.min_static = min(self.min_static, static)
+        if moving is not None:
+            self.min_moving = moving if self.min_moving is None else min(self.min_moving,
+                                                                         moving)
+
+    @property
+    def min_clearance(self) -> float:
+        """The smaller of the static and moving clearances [m]."""
+        return self.min_static if self.min_moving is None else min(self.min_static,
+                                                                   self.min_moving)
 
     def array(self) -> np.ndarray:
         return np.array(self.rows).reshape(-1, 4)
@@ -103,29 +127,45 @@ def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
 
 def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = "diff_drive",
              waypoints_file: str | FsPath | None = None, goal_timeout_s: float = 180.0,
-             show_progress: bool = True, record: bool = False,
-             attach: Callable[[NavStack], Callable[[], None]] | None = None) -> dict[str, Any]:
+             show_progress: bool = True, record: bool = False, replace_bag: bool = False,
+             attach: Callable[[NavStack], Callable[[], None]] | None = None,
+             link: LinkKind | None = None,
+             nav2_params: FsPath | Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
-    default topics, ground truth and goals; replaces a bag left there by an earlier run).
+    default topics, ground truth and goals); a bag left there by an earlier run is a
+    :class:`~navstack.runtime.recording.BagExistsError` unless ``replace_bag``.
     ``attach``: called with the stack once it is built (live viewers: web dashboard,
     Foxglove); returns the function that detaches them when the mission ends.
+    ``link``: run through the robot's vehicle link (module docstring); ``nav2_params``:
+    instead of the robot's packaged Nav2 file.
     """
     out.mkdir(parents=True, exist_ok=True)
     setup = demo_setup(robot)
     world = world or setup.world
     waypoints = load_waypoints(waypoints_file or setup.waypoints)
+    params = setup.nav2_params if nav2_params is None else nav2_params
     wall0 = time.perf_counter()
-    stack = NavStack(world, robot, nav2_params=setup.nav2_params, seed=seed)
+    vehicle_link = None
+    if link is not None:
+        stack, vehicle_link = hil_stack(world, robot, params, seed, link)
+        try:
+            stack.start()
+        except BaseException:
+            vehicle_link.close()
+            raise
+    else:
+        stack = NavStack(world, robot, nav2_params=params, seed=seed).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder
 
-        bag = BagRecorder(stack.runtime, out / "bag", replace=True)
+        bag = BagRecorder(stack.runtime, out / "bag", replace=replace_bag)
     nav = Navigator(stack)
     recorder = TrajectoryRecorder(stack)
     stack.runtime.scheduler.create_timer(0.1, recorder.sample, first_at=stack.now)
+    zones = ZoneMonitor(stack)
     plans: list[np.ndarray] = []
     stack.runtime.bus.subscribe("/plan", Path, lambda p: plans.append(p.as_array()[:, :2]))
     records = [GoalRecord(name) for name, _ in waypoints]
@@ -138,11 +178,16 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
         bag_summary = bag.close() if bag is not None else None
         if detach is not None:
             detach()
+        link_report = vehicle_link.report() if vehicle_link is not None else None
+        if vehicle_link is not None:
+            vehicle_link.close()
     live.close()
     wall = time.perf_counter() - wall0
     traj = recorder.array()
     collisions = stack.sim.sim.collisions
-    success = all(r.status == "SUCCEEDED" for r in records) and collisions == 0
+    zone_summary = zones.summary() if zones else None
+    success = (all(r.status == "SUCCEEDED" for r in records) and collisions == 0
+               and (zone_summary is None or zones_respected(zone_summary)))
     report: dict[str, Any] = {
         "success": success,
         "world": world, "robot": robot, "seed": seed,
@@ -152,18 +197,30 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
                    "recoveries": r.recoveries, "reason": r.reason} for r in records],
         "collisions": collisions,
         "min_clearance_m": round(recorder.min_clearance, 4),
+        "min_clearance_static_m": round(recorder.min_static, 4),
+        "min_clearance_moving_m": (round(recorder.min_moving, 4)
+                                   if recorder.min_moving is not None else None),
         "sim_time_s": round(stack.now, 3),
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(stack.now / wall, 2) if wall > 0 else 0.0,
     }
+    if zone_summary is not None:
+        report["zones"] = zone_summary
+        for line in zone_lines(zone_summary):
+            live.done(line)
     if bag_summary is not None:
         report["bag"] = {"path": str(bag_summary.path), "messages": bag_summary.messages}
+    if link_report is not None:
+        report["link"] = link_report
+    np.savetxt(out / "trajectory.csv", traj, delimiter=",", header="t,x,y,theta", fmt="%.4f",
+               comments="")
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(_markdown(report))
     goals_xy = {name: (p.pose.position.x, p.pose.position.y) for name, p in waypoints}
     plot_trajectory(stack.world.to_occupancy_grid(), traj[:, 1:3], plans, goals_xy,
                     out / "trajectory.png",
-                    title=f"navstack demo: {world}, {' -> '.join(r.name for r in records)}")
+                    title=f"navstack demo: {world}, {' -> '.join(r.name for r in records)}",
+                    zones=zone_overlays(zones))
     return report
 
 
@@ -236,9 +293,13 @@ def _markdown(r: dict[str, Any]) -> str:
                      f"{g['path_length_m']:.2f} | {g['min_goal_dist_m']:.3f} | "
                      f"{g['recoveries']} |")
     lines += ["", f"- collisions: {r['collisions']}",
-              f"- minimum clearance: {r['min_clearance_m']:.3f} m",
+              f"- minimum clearance (footprint to obstacle): to static obstacles "
+              f"{r['min_clearance_static_m']:.3f} m, to walkers "
+              + (f"{r['min_clearance_moving_m']:.3f} m" if r['min_clearance_moving_m']
+                 is not None else "– (none in this world)"),
               f"- simulated time: {r['sim_time_s']:.1f} s, wall time: {r['wall_time_s']:.1f} s "
-              f"(real-time factor {r['real_time_factor']:.1f})", "",
+              f"(real-time factor {r['real_time_factor']:.1f})",
+              *(f"- {line}" for line in zone_lines(r.get("zones"))), "",
               "![trajectory](trajectory.png)", ""]
     failed = [g for g in r["goals"] if g["reason"]]
     if failed:

@@ -10,8 +10,10 @@ mission loop and the runner serves the viewers from scheduler ticks
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from navstack.interfaces.live_runner import LiveRunner
@@ -29,6 +31,9 @@ class LiveOptions:
     foxglove: bool = False
     foxglove_port: int = 8765
     real_time_factor: float | None = 1.0
+    token_file: Path | None = None
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
 
     @property
     def enabled(self) -> bool:
@@ -46,7 +51,14 @@ def open_viewers(runner: LiveRunner, options: LiveOptions) -> list[Any]:
         if options.web:
             from navstack.interfaces.web.dashboard import serve_dashboard
 
-            handles.append(serve_dashboard(runner, options.host, options.port, options.token))
+            if options.token is not None:
+                print("warning: --token is visible to every user of this machine in `ps`; "
+                      "use --token-file or $NAVSTACK_DASHBOARD_TOKEN", file=sys.stderr)
+            handles.append(serve_dashboard(
+                runner, options.host, options.port, options.token,
+                token_file=None if options.token_file is None else str(options.token_file),
+                ssl_certfile=None if options.tls_cert is None else str(options.tls_cert),
+                ssl_keyfile=None if options.tls_key is None else str(options.tls_key)))
         if options.foxglove:
             from navstack.interfaces.foxglove_live import start_foxglove
 

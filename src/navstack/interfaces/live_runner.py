@@ -33,13 +33,12 @@ from typing import Any, TypeVar
 from pydantic import Field
 
 from navstack.core.errors import NavstackError
-from navstack.core.msgs import Bool, Twist
 from navstack.core.params import Params
+from navstack.interfaces.estop import EStopGate
 from navstack.interfaces.stack import NavStack
-from navstack.runtime.bus import LATCHED, QoS
-from navstack.runtime.node import Runtime
 
 T = TypeVar("T")
+__all__ = ["EStopGate", "LiveRunner", "LiveRunnerParams", "RunnerError"]
 _log = logging.getLogger("navstack.live")
 
 
@@ -61,73 +60,6 @@ class LiveRunnerParams(Params):
     max_lag: float = Field(0.5, gt=0.0)
 
 
-def _is_zero(msg: Twist) -> bool:
-    return (msg.linear.x == 0.0 and msg.linear.y == 0.0 and msg.linear.z == 0.0
-            and msg.angular.x == 0.0 and msg.angular.y == 0.0 and msg.angular.z == 0.0)
-
-
-class EStopGate:
-    """Latched emergency stop at the last stage before the base: ``/cmd_vel``.
-
-    The base (the simulator node, or a driver) listens on ``topic``.  While latched, every
-    non-zero command that reaches that topic -- from the controller through the collision
-    monitor, a behavior, teleop or anything else -- is answered at once, at the same
-    simulated instant, by a zero command on the same topic; since the bus delivers in order
-    and no simulated time passes in between, the base integrates zero velocity only.  A
-    latch also publishes zero immediately, so the robot is commanded to stop even when no
-    other source is publishing.  The latch holds until :meth:`release` is called explicitly
-    (twist_mux's ``e_stop`` lock semantics); its state is published latched on
-    ``status_topic`` (``std_msgs/Bool``) for other nodes and recorders.
-
-    Navigation is not cancelled: as with a hardware e-stop under Nav2, the running task
-    resumes after release (or fails through its progress checker if held long enough).
-    """
-
-    def __init__(self, runtime: Runtime, topic: str = "/cmd_vel",
-                 status_topic: str = "/e_stop") -> None:
-        self.runtime = runtime
-        self.topic = topic
-        self._pub = runtime.bus.publisher(topic, Twist, QoS(depth=1))
-        self._status = runtime.bus.publisher(status_topic, Bool, LATCHED)
-        self._sub = runtime.bus.subscribe(topic, Twist, self._on_cmd, QoS(depth=10))
-        self.latched = False
-        self.latched_at: float | None = None
-        self.released_at: float | None = None
-        self.reason = ""
-        self.overrides = 0
-        self._status.publish(Bool(False))
-
-    def latch(self, reason: str = "") -> float:
-        """Latch (idempotent) and command zero velocity now; returns the latch time [s]."""
-        if not self.latched:
-            self.latched = True
-            self.latched_at = self.runtime.now
-            self.reason = reason
-            self._status.publish(Bool(True))
-        self._pub.publish(Twist())
-        assert self.latched_at is not None
-        return self.latched_at
-
-    def release(self) -> float:
-        """Release the latch; commands pass again from the next one.  Returns the time [s]."""
-        if self.latched:
-            self.latched = False
-            self.released_at = self.runtime.now
-            self.reason = ""
-            self._status.publish(Bool(False))
-        return self.runtime.now
-
-    def _on_cmd(self, msg: Twist) -> None:
-        if self.latched and not _is_zero(msg):
-            self.overrides += 1
-            self._pub.publish(Twist())
-
-    def state(self) -> dict[str, Any]:
-        return {"latched": self.latched, "latched_at": self.latched_at,
-                "released_at": self.released_at, "reason": self.reason,
-                "overrides": self.overrides}
-
-
 class LiveRunner:
     """Runs ``stack`` in a background thread at ``real_time_factor`` x real time."""
 
@@ -137,7 +69,7 @@ class LiveRunner:
         both keyword settings."""
         self.params = params or LiveRunnerParams.from_mapping(
             {"real_time_factor": real_time_factor, "step": step}, key_path="live_runner")
-        self.stack = stack
+        self.stack = stack.start()  # idempotent: a stack built but not started runs here
         self.estop = EStopGate(stack.runtime)
         self.now = stack.now
         self.steps = 0
@@ -145,6 +77,8 @@ class LiveRunner:
         self.observer_errors = 0
         self.error: BaseException | None = None
         self._commands: queue.SimpleQueue[tuple[Callable[[NavStack], Any], Future[Any]]] = (
+            queue.SimpleQueue())
+        self._urgent: queue.SimpleQueue[tuple[Callable[[NavStack], Any], Future[Any]]] = (
             queue.SimpleQueue())
         self._observers: list[Callable[[float], None]] = []
         self._stop = threading.Event()
@@ -228,12 +162,15 @@ class LiveRunner:
         return (s1 - s0) / (w1 - w0) if w1 > w0 else 0.0
 
     # --- work from other threads ---------------------------------------------------------------
-    def submit(self, fn: Callable[[NavStack], T]) -> Future[T]:
-        """Run ``fn(stack)`` in the simulation thread before the next step."""
+    def submit(self, fn: Callable[[NavStack], T], *, urgent: bool = False) -> Future[T]:
+        """Run ``fn(stack)`` in the simulation thread before the next step.
+
+        ``urgent`` work (the e-stop) runs before every queued ordinary command, so a
+        latch never waits behind a burst of goals or other requests."""
         if not self.running:
             raise RunnerError(self._not_running())
         fut: Future[T] = Future()
-        self._commands.put((fn, fut))
+        (self._urgent if urgent else self._commands).put((fn, fut))
         self._wake.set()
         if not self.running:  # the thread ended between the check and the put
             self._fail_pending()
@@ -277,12 +214,28 @@ class LiveRunner:
         return "the simulation was stopped"
 
     # --- the simulation thread -------------------------------------------------------------------
+    def request_estop(self, source: str, reason: str = "") -> Future[float]:
+        """Latch the shared e-stop from any thread (urgent: ahead of queued commands);
+        the future's result is the simulated latch time.  Every operator interface
+        (web API and page, phone, Telegram) stops the robot through this one call."""
+        requested_at = self.now
+        return self.submit(lambda _s: self.estop.latch(reason, source, requested_at),
+                           urgent=True)
+
+    def _next(self) -> tuple[Callable[[NavStack], Any], Future[Any]] | None:
+        for q in (self._urgent, self._commands):
+            try:
+                return q.get_nowait()
+            except queue.Empty:
+                continue
+        return None
+
     def _drain(self) -> None:
         while True:
-            try:
-                fn, fut = self._commands.get_nowait()
-            except queue.Empty:
+            item = self._next()
+            if item is None:
                 return
+            fn, fut = item
             if not fut.set_running_or_notify_cancel():
                 continue
             try:
@@ -334,10 +287,10 @@ class LiveRunner:
 
     def _fail_pending(self) -> None:
         while True:
-            try:
-                _, fut = self._commands.get_nowait()
-            except queue.Empty:
+            item = self._next()
+            if item is None:
                 return
+            _, fut = item
             if fut.set_running_or_notify_cancel():
                 fut.set_exception(RunnerError(self._not_running()))
 

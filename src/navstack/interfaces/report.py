@@ -11,10 +11,14 @@ Writes ``report.md`` (tables), ``report.json`` (the same numbers) and ``speed.pn
 * **Speed / |w|**: the trajectory's body twist, all samples; **curvature** ``|w| / v``
   over the samples moving faster than ``moving_speed``.  ``/cmd_vel`` gets the same
   statistics.  Statistics are mean, median, 95th percentile and max.
+* **Clearance** (the demo's definition; whole run and per goal): distance from the
+  robot's footprint outline to the nearest static obstacle -- an occupied ``/map`` cell
+  (its square; occupancy >= 65, Nav2's ``occupied_thresh``) -- and, separately, to the
+  nearest moving obstacle (``/sim/obstacles``, the walkers), at the trajectory samples;
+  0 on contact, capped at 3 m.  The footprint is ``/sim/footprint`` when recorded, else a
+  circle of ``robot_radius``.
 * **Per goal**: status, time to goal (accepted -> terminal status), path length, minimum
-  distance to the goal, minimum clearance: distance from the trajectory to the nearest
-  occupied ``/map`` cell (centres, occupancy >= 65 as Nav2's ``occupied_thresh``) minus
-  ``robot_radius``.
+  distance to the goal, minimum clearances.
 * **Latency-aware safe speed** ``v_max = -a L + sqrt(a^2 L^2 + 2 a d_free)``: ``a`` the
   braking deceleration (default 2.5 m/s², Nav2 ``velocity_smoother`` ``max_decel``),
   ``L`` the measured end-to-end latency's 95th percentile (scan stamp -> first
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,13 +43,16 @@ from pydantic import Field
 from navstack.core.params import Params
 from navstack.interfaces.report_data import BagData, load_bag
 from navstack.interfaces.report_metrics import (
-    clearance_at,
-    clearance_field,
     curvature,
     grid_path,
+    grid_times,
+    interpolate_xy,
+    interpolate_yaw,
+    moving_clearances,
     path_length,
     safe_speed,
     scan_to_cmd_latency,
+    static_clearances,
     stats,
 )
 from navstack.interfaces.report_plots import plot_map, plot_series
@@ -70,7 +78,47 @@ def _rs(s: dict[str, float]) -> dict[str, float | None]:
     return {k: _r(v) for k, v in s.items()}
 
 
-def _goal_rows(data: BagData, p: ReportParams, field: Any) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class Clearances:
+    """Clearance at the trajectory samples ``t``: to static obstacles (NaN without a map)
+    and to moving ones (NaN without ``/sim/obstacles``)."""
+
+    t: np.ndarray
+    static: np.ndarray
+    moving: np.ndarray
+
+    def minima(self, t0: float = -math.inf, t1: float = math.inf) -> dict[str, float | None]:
+        inside = (self.t >= t0 - 1e-6) & (self.t <= t1 + 1e-6)
+        out: dict[str, float | None] = {}
+        for key, values in (("min_clearance_static_m", self.static[inside]),
+                            ("min_clearance_moving_m", self.moving[inside])):
+            out[key] = _r(float(np.nanmin(values))) if np.isfinite(values).any() else None
+        both = [v for v in out.values() if v is not None]
+        return {"min_clearance_m": min(both) if both else None, **out}
+
+
+def clearances(data: BagData, p: ReportParams) -> Clearances | None:
+    """Clearance on the ``sample_period`` grid (module docstring); ``None`` without a
+    trajectory."""
+    traj = data.trajectory
+    if traj is None or not len(traj.t):
+        return None
+    t = grid_times(data.start, data.end, p.sample_period)
+    xy = interpolate_xy(traj.t, traj.xy, t)
+    yaw = interpolate_yaw(traj.t, traj.yaw, t)
+    if data.footprint is None:
+        data.notes.append(f"no /sim/footprint in the bag: clearance is measured from a "
+                          f"circle of robot_radius {p.robot_radius:g} m")
+    static = (static_clearances(data.grid, xy, yaw, data.footprint, p.robot_radius)
+              if data.grid is not None else np.full(len(t), np.nan))
+    moving = (moving_clearances(t, xy, yaw, data.footprint, p.robot_radius,
+                                data.obstacle_t, data.obstacles)
+              if data.obstacles else np.full(len(t), np.nan))
+    return Clearances(t, static, moving)
+
+
+def _goal_rows(data: BagData, p: ReportParams, clear: Clearances | None
+               ) -> list[dict[str, Any]]:
     traj = data.trajectory
     rows = []
     for g in data.goals:
@@ -80,18 +128,17 @@ def _goal_rows(data: BagData, p: ReportParams, field: Any) -> list[dict[str, Any
                                "y": _r(g.xy[1]) if g.xy else None,
                                "start_s": _r(g.start, 3), "end_s": _r(end, 3),
                                "time_s": _r(end - g.start, 3), "path_length_m": None,
-                               "min_goal_dist_m": None, "min_clearance_m": None}
+                               "min_goal_dist_m": None, "min_clearance_m": None,
+                               "min_clearance_static_m": None,
+                               "min_clearance_moving_m": None}
         if traj is not None and len(traj.t):
             samples = grid_path(traj.t, traj.xy, g.start, end, p.sample_period)
             row["path_length_m"] = _r(path_length(samples))
             if g.xy is not None and len(samples):
                 d = np.hypot(samples[:, 0] - g.xy[0], samples[:, 1] - g.xy[1])
                 row["min_goal_dist_m"] = _r(float(d.min()))
-            if field is not None and data.grid is not None:
-                inside = (traj.t >= g.start - 1e-6) & (traj.t <= end + 1e-6)
-                c = clearance_at(data.grid, field, traj.xy[inside])
-                if np.isfinite(c).any():
-                    row["min_clearance_m"] = _r(float(np.nanmin(c)) - p.robot_radius)
+        if clear is not None:
+            row.update(clear.minima(g.start, end))
         rows.append(row)
     return rows
 
@@ -139,7 +186,7 @@ def compute_report(data: BagData, params: ReportParams | None = None) -> dict[st
     """All report numbers as a JSON-ready dict (``report.json``)."""
     p = params or ReportParams()
     traj = data.trajectory
-    field = clearance_field(data.grid) if data.grid is not None else None
+    clear = clearances(data, p)
     rep: dict[str, Any] = {
         "bag": str(data.path), "start_s": _r(data.start, 3), "end_s": _r(data.end, 3),
         "duration_s": _r(data.end - data.start, 3),
@@ -148,7 +195,8 @@ def compute_report(data: BagData, params: ReportParams | None = None) -> dict[st
         "curvature_1_m": None,
         "cmd_vel": {"count": int(data.cmd_t.size), "vx_m_s": _rs(stats(data.cmd_vx)),
                     "wz_abs_rad_s": _rs(stats(np.abs(data.cmd_wz)))},
-        "min_clearance_m": None, "min_scan_range_m": None, "notes": list(data.notes)}
+        "min_clearance_m": None, "min_clearance_static_m": None,
+        "min_clearance_moving_m": None, "min_scan_range_m": None, "notes": list(data.notes)}
     if traj is not None and len(traj.t):
         samples = grid_path(traj.t, traj.xy, data.start, data.end, p.sample_period)
         rep["trajectory"] = {"topic": traj.topic, "frame": traj.frame,
@@ -158,17 +206,15 @@ def compute_report(data: BagData, params: ReportParams | None = None) -> dict[st
         rep["speed_m_s"] = _rs(stats(traj.speed))
         rep["angular_speed_rad_s"] = _rs(stats(np.abs(traj.wz)))
         rep["curvature_1_m"] = _rs(stats(curvature(traj.speed, traj.wz, p.moving_speed)))
-        if field is not None and data.grid is not None:
-            if traj.frame != data.grid.header.frame_id:
-                rep["notes"].append(f"trajectory in '{traj.frame}', map in "
-                                    f"'{data.grid.header.frame_id}': clearance assumes "
-                                    f"they coincide")
-            c = clearance_at(data.grid, field, traj.xy)
-            if np.isfinite(c).any():
-                rep["min_clearance_m"] = _r(float(np.nanmin(c)) - p.robot_radius)
+        if data.grid is not None and traj.frame != data.grid.header.frame_id:
+            rep["notes"].append(f"trajectory in '{traj.frame}', map in "
+                                f"'{data.grid.header.frame_id}': clearance assumes "
+                                f"they coincide")
+    if clear is not None:
+        rep.update(clear.minima())
     if data.scan_min.size:
         rep["min_scan_range_m"] = _r(float(data.scan_min.min()))
-    rep["goals"] = _goal_rows(data, p, field)
+    rep["goals"] = _goal_rows(data, p, clear)
     rep["safety"] = _safety(data, p)
     rep["params"] = p.model_dump()
     return rep
@@ -193,8 +239,10 @@ def to_markdown(rep: dict[str, Any]) -> str:
              f"({_fmt(rep['start_s'], 3)} → {_fmt(rep['end_s'], 3)})",
              f"- trajectory source: {src}",
              f"- path length: {_fmt(traj['path_length_m']) if traj else '–'} m",
-             f"- minimum clearance to the map: {_fmt(rep['min_clearance_m'])} m; nearest "
-             f"scan return: {_fmt(rep['min_scan_range_m'])} m", "",
+             f"- minimum clearance (footprint to obstacle): to static obstacles "
+             f"{_fmt(rep['min_clearance_static_m'])} m, to walkers "
+             f"{_fmt(rep['min_clearance_moving_m'])} m; nearest scan return: "
+             f"{_fmt(rep['min_scan_range_m'])} m", "",
              "## Motion", "", "| quantity | mean | median | p95 | max |",
              "|---|---:|---:|---:|---:|",
              _stat_row("speed [m/s]", rep["speed_m_s"]),
@@ -204,13 +252,15 @@ def to_markdown(rep: dict[str, Any]) -> str:
              _stat_row("commanded \\|wz\\| [rad/s]", rep["cmd_vel"]["wz_abs_rad_s"]), ""]
     if rep["goals"]:
         lines += ["## Goals", "", "| goal | x | y | status | time [s] | path length [m] | "
-                  "min goal distance [m] | min clearance [m] |",
-                  "|---|---:|---:|---|---:|---:|---:|---:|"]
+                  "min goal distance [m] | min clearance static [m] | "
+                  "min clearance walkers [m] |",
+                  "|---|---:|---:|---|---:|---:|---:|---:|---:|"]
         for g in rep["goals"]:
             lines.append(f"| {g['index']} | {_fmt(g['x'], 2)} | {_fmt(g['y'], 2)} | "
                          f"{g['status']} | {_fmt(g['time_s'], 1)} | "
                          f"{_fmt(g['path_length_m'])} | {_fmt(g['min_goal_dist_m'])} | "
-                         f"{_fmt(g['min_clearance_m'])} |")
+                         f"{_fmt(g['min_clearance_static_m'])} | "
+                         f"{_fmt(g['min_clearance_moving_m'])} |")
         lines.append("")
     s = rep["safety"]
     lat = s["latency_measured_s"]

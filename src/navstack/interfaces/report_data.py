@@ -9,6 +9,9 @@ message's body-frame twist.
 position (the goal pose logged at its acceptance time, else the n-th goal pose).
 *Scans.*  The laser's yaw on the robot comes from ``/tf_static`` (scan frame -> the
 trajectory's ``child_frame_id``); without it the laser is taken to face forward.
+*Clearance inputs.*  ``/sim/footprint`` (the body's outline, a LINE_STRIP Marker in the
+robot frame) and ``/sim/obstacles`` (walkers, a MarkerArray) when the simulator recorded
+them (:class:`~navstack.sim.node.SimulatorNode`).
 """
 
 from __future__ import annotations
@@ -21,10 +24,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.errors import NavstackError
-from navstack.core.msgs import LaserScan, OccupancyGrid, Odometry, Path, PoseStamped, TFMessage
+from navstack.core.msgs import (
+    LaserScan,
+    Marker,
+    MarkerArray,
+    OccupancyGrid,
+    Odometry,
+    Path,
+    PoseStamped,
+    TFMessage,
+)
 from navstack.core.msgs import Twist as TwistMsg
 from navstack.core.tf import TransformTree
-from navstack.interfaces.report_metrics import forward_free_distance
+from navstack.interfaces.report_metrics import forward_free_distance, obstacle_shapes
 from navstack.runtime.recording.goal_status import STATUS_NAMES, GoalStatusArray
 from navstack.runtime.recording.reader import BagReader
 from navstack.runtime.recording.recorder import GOAL_POSE_TOPIC, GOAL_STATUS_TOPIC
@@ -38,6 +50,8 @@ EXPECTED: dict[str, str] = {
     "/map": "nav_msgs/msg/OccupancyGrid", "/plan": "nav_msgs/msg/Path",
     GOAL_POSE_TOPIC: "geometry_msgs/msg/PoseStamped",
     GOAL_STATUS_TOPIC: "action_msgs/msg/GoalStatusArray", "/tf_static": "tf2_msgs/msg/TFMessage",
+    "/sim/footprint": "visualization_msgs/msg/Marker",
+    "/sim/obstacles": "visualization_msgs/msg/MarkerArray",
 }
 
 
@@ -85,6 +99,9 @@ class BagData:
     plans: list[FloatArray] = field(default_factory=list)
     goals: list[GoalEvent] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    footprint: FloatArray | None = None
+    obstacle_t: FloatArray = field(default_factory=lambda: np.zeros(0))
+    obstacles: list[tuple[FloatArray, FloatArray]] = field(default_factory=list)
 
 
 def _trajectory(topic: str, msgs: list[Odometry]) -> Trajectory:
@@ -149,6 +166,7 @@ def load_bag(path: str | FsPath, forward_half_angle: float = math.radians(15.0),
         cmds: list[tuple[float, float, float]] = []
         statuses: list[tuple[float, GoalStatusArray]] = []
         poses: list[tuple[float, PoseStamped]] = []
+        obstacle_t: list[float] = []
         tree = TransformTree(cache_time=1e9)
         read = [t for t in wanted if t not in odometry_like or t == traj_topic]
         for item in bag.messages(read):
@@ -167,6 +185,13 @@ def load_bag(path: str | FsPath, forward_half_angle: float = math.radians(15.0),
                 statuses.append((item.log_time, msg))
             elif isinstance(msg, PoseStamped):
                 poses.append((item.log_time, msg))
+            elif isinstance(msg, Marker) and len(msg.points) >= 3:
+                outline = np.array([(q.x, q.y) for q in msg.points], dtype=np.float64)
+                closed = np.allclose(outline[0], outline[-1])
+                data.footprint = outline[:-1] if closed else outline
+            elif isinstance(msg, MarkerArray):
+                obstacle_t.append(item.log_time)
+                data.obstacles.append(obstacle_shapes(msg))
             elif isinstance(msg, TFMessage):
                 try:
                     tree.apply_tf_message(msg, True)
@@ -180,6 +205,7 @@ def load_bag(path: str | FsPath, forward_half_angle: float = math.radians(15.0),
     if scans:
         _scan_arrays(data, scans, tree, forward_half_angle)
     data.goals = _goals(statuses, poses)
+    data.obstacle_t = np.array(obstacle_t, dtype=np.float64)
     return data
 
 

@@ -10,6 +10,10 @@
 * End-to-end latency (:func:`scan_to_cmd_latency`): for every scan taken while commands
   flow, the first command logged strictly after the scan minus the scan's header stamp
   -- sensor stamping, transport, perception, planning and control together.
+* Clearance (:func:`static_clearances`, :func:`moving_clearances`): the demo's
+  definition -- distance from the robot's footprint outline at each sampled pose to the
+  nearest occupied map cell (its square) and, separately, to the nearest moving obstacle,
+  0 on contact, capped at :data:`~navstack.sim.collision.CLEARANCE_CAP`.
 """
 
 from __future__ import annotations
@@ -20,7 +24,14 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import distance_transform_edt
 
-from navstack.core.msgs import OccupancyGrid
+from navstack.core.msgs import Marker, MarkerArray, OccupancyGrid
+from navstack.sim.collision import (
+    CLEARANCE_CAP,
+    grid_clearance,
+    grid_polygon_clearance,
+    moving_clearance,
+    polygon_hits_grid,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -137,4 +148,90 @@ def clearance_at(grid: OccupancyGrid, field: FloatArray, xy: FloatArray) -> Floa
     inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
     out = np.full(len(xy), np.nan)
     out[inside] = field[row[inside], col[inside]]
+    return out
+
+
+def interpolate_yaw(t: FloatArray, yaw: FloatArray, at: FloatArray) -> FloatArray:
+    """Headings at times ``at`` (linear on the unwrapped angle, clamped at both ends)."""
+    return np.asarray(np.interp(at, t, np.unwrap(yaw)), dtype=np.float64)
+
+
+def _grid_frame(grid: OccupancyGrid, xy: FloatArray, yaw: FloatArray
+                ) -> tuple[FloatArray, FloatArray]:
+    """Poses in the grid's own axes (origin rotation removed; distances unchanged)."""
+    o = grid.info.origin.to_pose2d()
+    c, s = math.cos(o.theta), math.sin(o.theta)
+    dx, dy = xy[:, 0] - o.x, xy[:, 1] - o.y
+    return np.column_stack((c * dx + s * dy, -s * dx + c * dy)), yaw - o.theta
+
+
+def _place(footprint: FloatArray, x: float, y: float, yaw: float) -> FloatArray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.ascontiguousarray(np.column_stack(
+        (x + c * footprint[:, 0] - s * footprint[:, 1],
+         y + s * footprint[:, 0] + c * footprint[:, 1])), dtype=np.float64)
+
+
+def static_clearances(grid: OccupancyGrid, xy: FloatArray, yaw: FloatArray,
+                      footprint: FloatArray | None, radius: float = 0.0,
+                      cap: float = CLEARANCE_CAP) -> FloatArray:
+    """Per pose: distance [m] from the footprint (``(N, 2)`` in the robot frame, or a
+    circle of ``radius`` when ``None``) to the nearest occupied cell square of ``grid``
+    (occupancy >= :data:`OCCUPIED`), capped at ``cap``; 0 on contact."""
+    occ = np.ascontiguousarray(np.asarray(grid.data).reshape(grid.info.height,
+                                                            grid.info.width) >= OCCUPIED)
+    res = float(grid.info.resolution)
+    pts, headings = _grid_frame(grid, np.asarray(xy, dtype=np.float64).reshape(-1, 2),
+                                np.asarray(yaw, dtype=np.float64))
+    out = np.empty(len(pts))
+    for i, ((x, y), h) in enumerate(zip(pts, headings, strict=True)):
+        if footprint is None:
+            d = grid_clearance(occ, 0.0, 0.0, res, float(x), float(y), cap + radius)
+            out[i] = min(max(d - radius, 0.0), cap)
+            continue
+        poly = _place(footprint, float(x), float(y), float(h))
+        out[i] = (0.0 if polygon_hits_grid(occ, 0.0, 0.0, res, poly)
+                  else grid_polygon_clearance(occ, 0.0, 0.0, res, poly, cap))
+    return out
+
+
+def obstacle_shapes(markers: MarkerArray) -> tuple[FloatArray, FloatArray]:
+    """``(circles (k, 3), boxes (b, 4, 2))`` of a ``/sim/obstacles`` MarkerArray."""
+    circles, boxes = [], []
+    for m in markers.markers:
+        p, h = m.pose.position, m.pose.orientation.yaw
+        if m.type == Marker.CYLINDER:
+            circles.append((p.x, p.y, 0.5 * m.scale.x))
+        elif m.type == Marker.CUBE:
+            hl, hw = 0.5 * m.scale.x, 0.5 * m.scale.y
+            local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+            boxes.append(_place(local, p.x, p.y, h))
+    return (np.array(circles, dtype=np.float64).reshape(-1, 3),
+            np.array(boxes, dtype=np.float64).reshape(-1, 4, 2))
+
+
+def moving_clearances(t: FloatArray, xy: FloatArray, yaw: FloatArray,
+                      footprint: FloatArray | None, radius: float,
+                      obstacle_t: FloatArray, obstacles: list[tuple[FloatArray, FloatArray]],
+                      cap: float = CLEARANCE_CAP) -> FloatArray:
+    """Per pose at time ``t``: distance [m] from the footprint (or a ``radius`` circle) to
+    the moving obstacles of the latest ``obstacles`` sample at or before ``t`` (NaN before
+    the first), capped at ``cap``; 0 on contact."""
+    out = np.full(len(t), np.nan)
+    idx = np.searchsorted(obstacle_t, np.asarray(t) + 1e-9, side="right") - 1
+    body = footprint if footprint is not None else np.zeros((1, 2))
+    none = np.zeros((0, 3)), np.zeros((0, 4, 2))
+    for i in range(len(t)):
+        if idx[i] < 0:
+            continue
+        circles, boxes = obstacles[idx[i]]
+        poly = _place(body, float(xy[i, 0]), float(xy[i, 1]), float(yaw[i]))
+        if footprint is not None:
+            d = moving_clearance(poly, circles, boxes, cap)
+        else:  # a circle of `radius`: grow the round obstacles, shrink the box distance
+            grown = circles.copy()
+            grown[:, 2] += radius
+            d = min(moving_clearance(poly, grown, none[1], cap),
+                    moving_clearance(poly, none[0], boxes, cap + radius) - radius)
+        out[i] = min(max(d, 0.0), cap)
     return out

@@ -7,30 +7,47 @@ controller server and behavior server (``/cmd_vel_nav``) -> collision monitor
 Navigation parameters are a Nav2 parameter file (the packaged default is
 ``navstack/config/nav2_params.yaml``).  The robot's footprint comes from its profile and
 overrides ``robot_radius``/``footprint`` in the costmap sections.
+
+Construction only describes the stack (:attr:`NavStack.description`: which nodes, with
+which parameters, all validated); :meth:`NavStack.start` builds the nodes, brings them up
+and runs the first instant.  ``start()`` is idempotent, and what drives a stack starts
+it: :class:`~navstack.interfaces.api.Navigator`, :meth:`NavStack.run_for`, the live
+runner and the health session.  The running parts (``runtime``, ``sim``, the servers)
+exist only after ``start()``; reading them before raises :class:`StackNotStarted`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
+from navstack.core.errors import LifecycleError
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
-from navstack.mapping.slam_node import SlamNode
-from navstack.mapping.slam_params import SlamParams
-from navstack.navigation.behavior_server import BehaviorServer, BehaviorServerParams
-from navstack.navigation.bt_navigator import BtNavigator, BtNavigatorParams
+from navstack.interfaces.stack_description import (
+    Localization,
+    LocalizationName,
+    PerfectLocalization,
+    StackDescription,
+    describe_stack,
+)
+from navstack.navigation.behavior_server import BehaviorServer
+from navstack.navigation.bt_navigator import BtNavigator
 from navstack.navigation.collision_monitor_node import CollisionMonitorNode
 from navstack.navigation.controller_server import ControllerServer
+from navstack.navigation.costmap_filter_servers import FilterServers, create_filter_servers
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
+from navstack.navigation.nav2_params import Nav2Params, load_nav2_params, stack_navigation
 from navstack.navigation.planner_server import PlannerServer
-from navstack.navigation.trees import NavigateTreeParams
-from navstack.navigation.waypoint_follower import WaypointFollower, WaypointFollowerParams
-from navstack.runtime.config import load_stack, load_yaml, ros_parameters
+from navstack.navigation.waypoint_follower import WaypointFollower
+from navstack.nodes.amcl import AmclNode
+from navstack.nodes.slam import SlamNode
+from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
@@ -38,127 +55,241 @@ from navstack.sim.simulator import Simulator
 from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
-if TYPE_CHECKING:
-    from navstack.localization.amcl.node import AmclNode
+__all__ = ["NavStack", "StackExtension", "StackNotStarted", "default_nav2_params_path"]
 
 
 def default_nav2_params_path() -> Path:
     return Path(str(resources.files("navstack") / "config" / "nav2_params.yaml"))
 
 
+class StackExtension(Protocol):
+    """Nodes added to a stack at ``start()``, right after the simulator (a vehicle link
+    and its simulated vehicle, :mod:`navstack.interfaces.hil`).  ``wired``: the parts of
+    the simulated robot the extension serves instead of the simulator node (``"base"``,
+    ``"odometry"``, ``"imu"``, ``"gnss"``, ``"magnetometer"``)."""
+
+    wired: frozenset[str]
+
+    def attach(self, runtime: Runtime, sim: SimulatorNode) -> None: ...
+
+    def ready(self, runtime: Runtime) -> bool:
+        """Whether the extension is up (``start()`` waits for it, at most 2 s)."""
+
+
+class StackNotStarted(LifecycleError):
+    """A running part of a :class:`NavStack` was read before :meth:`NavStack.start`."""
+
+
+@dataclass
+class _Running:
+    """The nodes of a started stack."""
+
+    runtime: Runtime
+    sim: SimulatorNode
+    map_server: MapServer | None
+    amcl: AmclNode | None
+    slam: SlamNode | None
+    global_costmap: CostmapNode
+    local_costmap: CostmapNode
+    filter_servers: FilterServers
+    planner: PlannerServer
+    controller: ControllerServer
+    behaviors: BehaviorServer
+    collision_monitor: CollisionMonitorNode
+    navigator: BtNavigator
+    waypoint_follower: WaypointFollower
+
+
 class NavStack:
-    """Simulator + Nav2-equivalent servers, configured and active, in one ``Runtime``."""
+    """Simulator + Nav2-equivalent servers in one ``Runtime``: described on construction,
+    configured and active after :meth:`start`."""
 
     def __init__(self, world: str | World = "office", robot: str | RobotParams = "diff_drive",
-                 nav2_params: str | Path | Mapping[str, Any] | None = None, seed: int = 0,
-                 spawn: Pose2D | None = None, perfect_localization: bool = True,
+                 nav2_params: str | Path | Mapping[str, Any] | Nav2Params | None = None,
+                 seed: int = 0,
+                 spawn: Pose2D | None = None, *,
+                 localization: LocalizationName | Localization = "perfect",
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
-                 slam: bool | SlamParams | Mapping[str, Any] = False,
-                 amcl: bool | Mapping[str, Any] = False) -> None:
+                 extensions: Sequence[StackExtension] = ()) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
         the map given to navigation (default: the world's true static map).
 
-        ``slam``: map while navigating instead -- a :class:`SlamNode` (slam_toolbox
-        parameters, ``True`` for the defaults) builds ``/map`` and publishes
-        ``map -> odom``; there is no map server and no perfect localization.  The SLAM map
-        frame starts at the spawn pose (slam_toolbox ``map_start_pose``), so goals keep
-        the world's coordinates.
+        ``localization``: ``"perfect"`` (the simulator's true ``map -> odom``),
+        ``"external"`` (none: something outside the stack publishes it), ``"amcl"`` (AMCL
+        on the known map, initial pose = spawn pose) or ``"slam"`` (map while navigating;
+        no map server), or an option object with parameters --
+        ``AmclLocalization({...Nav2 amcl keys})``, ``SlamLocalization(SlamParams | {...})``
+        (:mod:`navstack.interfaces.stack_description`).
 
-        ``amcl``: localize with AMCL on the known map instead of the simulator's perfect
-        ``map -> odom`` (Nav2 ``amcl`` parameters, ``True`` for the defaults); the
-        initial pose is the spawn pose (``set_initial_pose``) unless given."""
-        if nav2_params is None or isinstance(nav2_params, str | Path):
-            path = Path(nav2_params) if nav2_params is not None else default_nav2_params_path()
-            nav, file = load_yaml(path), str(path)
-        else:
-            nav, file = dict(nav2_params), "<nav2 params>"
+        Nothing runs yet: the arguments are resolved and validated into
+        :attr:`description`; :meth:`start` brings the stack up."""
+        checked = load_nav2_params(nav2_params)  # errors name the file; partial files merge
+        nav, file = checked.data, checked.file
+        self.description: StackDescription = describe_stack(
+            load_world(world) if isinstance(world, str) else world,
+            load_robot(robot) if isinstance(robot, str) else robot,
+            nav, file, seed, spawn, localization, physics_rate_hz, map_grid)
+        d = self.description
         self.nav2_params = nav
-        self.runtime = rt = Runtime()
-        self.world = load_world(world) if isinstance(world, str) else world
-        self.robot = load_robot(robot) if isinstance(robot, str) else robot
-        # navigation plans with the body padded by the costmaps' footprint_padding (Nav2)
-        padding = ros_parameters(nav, "global_costmap", file=file).get("footprint_padding", 0.01)
-        self.footprint = self.robot.updated(footprint_padding=float(padding)).footprint_model()
-        # recoveries check the body itself: they exist to get out of tight spots
-        self.body_footprint = self.robot.footprint_model()
-        simulator = Simulator(self.world, self.robot, seed, spawn)
-        self.slam: SlamNode | None = None
-        self.map_server: MapServer | None = None
-        self.amcl: AmclNode | None = None
-        if slam is False and amcl is not False:
-            from navstack.localization.amcl.node import AmclNode
-            from navstack.localization.amcl.params import AmclParams
+        self.world = d.world
+        self.robot = d.robot
+        self.footprint = d.footprint
+        self.body_footprint = d.body_footprint
+        self.extensions = tuple(extensions)
+        self._running: _Running | None = None
 
-            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, False)
-            self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
-            start = simulator.pose
-            given = {} if amcl is True else dict(amcl)
-            section = ros_parameters(nav, "amcl", file=file)  # the Nav2 file's amcl:
-            amcl_params = AmclParams.from_mapping(
-                {"set_initial_pose": True, "base_frame_id": "base_link",
-                 "initial_pose": {"x": start.x, "y": start.y, "yaw": start.theta},
-                 **section, **given}, file=file, key_path="amcl")
-            self.amcl = AmclNode(rt, amcl_params)
-        elif slam is False:
-            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, perfect_localization)
-            self.map_server = MapServer(rt, grid=map_grid or self.world.to_occupancy_grid())
-        else:
-            self.sim = SimulatorNode(rt, simulator, physics_rate_hz, False)
-            start = simulator.pose
-            xmin, ymin, xmax, ymax = self.world.bounds
-            overrides = {"map_start_pose": [start.x, start.y, start.theta],
-                         "map_minimum_extent": [xmin, ymin, xmax, ymax]}
-            # navigation plans on /map: a map every second (slam_toolbox's 5 s default
-            # leaves the planner routing through what the robot already saw blocked)
-            live = {"map_update_interval": 1.0}
-            if isinstance(slam, SlamParams):
-                slam_params = slam.updated(**overrides, **{
-                    k: v for k, v in live.items() if k not in slam.model_fields_set})
-            else:
-                given = {} if slam is True else dict(slam)
-                slam_params = SlamParams.from_mapping({**live, **overrides, **given},
-                                                      key_path="slam_toolbox")
-            self.slam = SlamNode(rt, slam_params)
-        self.global_costmap = CostmapNode(rt, "global_costmap",
-                                          ros_parameters(nav, "global_costmap", file=file),
-                                          self.footprint, file)
-        self.local_costmap = CostmapNode(rt, "local_costmap",
-                                         ros_parameters(nav, "local_costmap", file=file),
-                                         self.footprint, file)
-        self.planner = PlannerServer(rt, ros_parameters(nav, "planner_server", file=file),
-                                     self.global_costmap, file, footprint=self.footprint)
-        self.controller = ControllerServer(
-            rt, ros_parameters(nav, "controller_server", file=file), self.local_costmap,
-            self.footprint, file)
-        self.behaviors = BehaviorServer(
-            rt, BehaviorServerParams.from_mapping(
-                ros_parameters(nav, "behavior_server", file=file), file=file,
-                key_path="behavior_server"),
-            collision_checker=self.local_collision)
-        self.collision_monitor = CollisionMonitorNode(rt, self.body_footprint)
-        bt = ros_parameters(nav, "bt_navigator", file=file)
-        tree = bt.pop("tree", None) or {}
-        self.navigator = BtNavigator(
-            rt, BtNavigatorParams.from_mapping(bt, file=file, key_path="bt_navigator"),
-            tree_params=NavigateTreeParams.from_mapping(tree, file=file,
-                                                        key_path="bt_navigator.tree"))
-        self.waypoint_follower = WaypointFollower(rt, WaypointFollowerParams.from_mapping(
-            ros_parameters(nav, "waypoint_follower", file=file), file=file,
-            key_path="waypoint_follower"))
+    # --- bring-up --------------------------------------------------------------------------
+    @property
+    def started(self) -> bool:
+        return self._running is not None
+
+    def start(self) -> NavStack:
+        """Build the described nodes, configure and activate them, and run the first
+        instant (a first costmap cycle; with AMCL, until its first ``map -> odom``, at most
+        2 s).  Idempotent; returns the stack."""
+        if self._running is not None:
+            return self
+        rt = Runtime()
+        sim = self._start_simulation(rt)
+        for extension in self.extensions:
+            extension.attach(rt, sim)
+        map_server, amcl, slam = self._start_localization(rt)
+        filter_servers = self._start_filter_servers(rt)
+        global_costmap, local_costmap = self._start_costmaps(rt)
+        planner, controller, behaviors, monitor = self._start_servers(rt, global_costmap,
+                                                                      local_costmap)
+        navigator, follower = self._start_navigators(rt)
+        self._running = _Running(rt, sim, map_server, amcl, slam, global_costmap,
+                                 local_costmap, filter_servers, planner, controller,
+                                 behaviors, monitor, navigator, follower)
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
-        if self.amcl is not None:
+        if self.extensions:  # e.g. a vehicle link's first odometry and map -> odom
+            rt.scheduler.run_until(2.0, until=lambda: all(e.ready(rt) for e in self.extensions))
+            sim.advance()
+        if amcl is not None:
             # AMCL publishes map -> odom after its first scan: wait for it (as a Nav2
             # launch waits for localization before sending goals), at most 2 s
             rt.scheduler.run_until(2.0, until=lambda: rt.tf.can_transform("map", "odom"))
-            self.sim.advance()
-        self.global_costmap.update()
-        self.local_costmap.update()
+            sim.advance()
+        global_costmap.update()
+        local_costmap.update()
+        return self
+
+    def _start_simulation(self, rt: Runtime) -> SimulatorNode:
+        d = self.description
+        perfect = isinstance(d.localization, PerfectLocalization)
+        wired = frozenset().union(*(e.wired for e in self.extensions))
+        return SimulatorNode(rt, Simulator(d.world, d.robot, d.seed, d.spawn),
+                             d.physics_rate_hz, perfect, wired=wired)
+
+    def _start_localization(self, rt: Runtime
+                            ) -> tuple[MapServer | None, AmclNode | None, SlamNode | None]:
+        """Map server (unless SLAM builds the map), then AMCL or SLAM if chosen."""
+        d = self.description
+        map_server = (MapServer(rt, grid=d.map_grid or d.world.to_occupancy_grid())
+                      if d.has_map_server else None)
+        amcl = AmclNode(rt, d.amcl) if d.amcl is not None else None
+        slam = SlamNode(rt, d.slam) if d.slam is not None else None
+        return map_server, amcl, slam
+
+    def _start_filter_servers(self, rt: Runtime) -> FilterServers:
+        """Costmap filter info + mask servers (keepout / speed zones) the Nav2 file declares."""
+        d = self.description
+        return create_filter_servers(rt, d.nav2_params, d.nav2_file)
+
+    def _start_costmaps(self, rt: Runtime) -> tuple[CostmapNode, CostmapNode]:
+        d = self.description
+        return (CostmapNode(rt, "global_costmap", d.global_costmap, d.footprint, d.nav2_file),
+                CostmapNode(rt, "local_costmap", d.local_costmap, d.footprint, d.nav2_file))
+
+    def _start_servers(self, rt: Runtime, global_costmap: CostmapNode,
+                       local_costmap: CostmapNode
+                       ) -> tuple[PlannerServer, ControllerServer, BehaviorServer,
+                                  CollisionMonitorNode]:
+        """Planner, controller and behavior servers, and the collision monitor."""
+        d = self.description
+        planner = PlannerServer(rt, d.planner_server, global_costmap, d.nav2_file,
+                                footprint=d.footprint)
+        controller = ControllerServer(rt, d.controller_server, local_costmap, d.footprint,
+                                      d.nav2_file)
+        behaviors = BehaviorServer(rt, d.behavior_server, collision_checker=self.local_collision)
+        monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor)
+        return planner, controller, behaviors, monitor
+
+    def _start_navigators(self, rt: Runtime) -> tuple[BtNavigator, WaypointFollower]:
+        d = self.description
+        return (BtNavigator(rt, d.bt_navigator, tree_params=d.navigate_tree),
+                WaypointFollower(rt, d.waypoint_follower))
+
+    def _up(self) -> _Running:
+        if self._running is None:
+            raise StackNotStarted(
+                "the stack is described but not started: call stack.start() (Navigator(stack), "
+                "stack.run_for() and the live runner start it for you)")
+        return self._running
+
+    # --- the running parts (after start()) ---------------------------------------------------
+    @property
+    def runtime(self) -> Runtime:
+        return self._up().runtime
+
+    @property
+    def sim(self) -> SimulatorNode:
+        return self._up().sim
+
+    @property
+    def map_server(self) -> MapServer | None:
+        return self._up().map_server
+
+    @property
+    def amcl(self) -> AmclNode | None:
+        return self._up().amcl
+
+    @property
+    def slam(self) -> SlamNode | None:
+        return self._up().slam
+
+    @property
+    def global_costmap(self) -> CostmapNode:
+        return self._up().global_costmap
+
+    @property
+    def local_costmap(self) -> CostmapNode:
+        return self._up().local_costmap
+
+    @property
+    def filter_servers(self) -> FilterServers:
+        return self._up().filter_servers
+
+    @property
+    def planner(self) -> PlannerServer:
+        return self._up().planner
+
+    @property
+    def controller(self) -> ControllerServer:
+        return self._up().controller
+
+    @property
+    def behaviors(self) -> BehaviorServer:
+        return self._up().behaviors
+
+    @property
+    def collision_monitor(self) -> CollisionMonitorNode:
+        return self._up().collision_monitor
+
+    @property
+    def navigator(self) -> BtNavigator:
+        return self._up().navigator
+
+    @property
+    def waypoint_follower(self) -> WaypointFollower:
+        return self._up().waypoint_follower
 
     @classmethod
     def from_stack_file(cls, path: str | Path) -> NavStack:
-        """Build the running graph a stack YAML describes (robot, world, seed, Nav2 params).
+        """The stack a stack YAML describes (robot, world, seed, Nav2 params), not started.
 
         ``robot`` may name a profile or be an inline profile mapping; ``navigation`` is a
         Nav2 parameter file (relative to the stack file) or inline Nav2 layout, and the
@@ -167,10 +298,11 @@ class NavStack:
         cfg = load_stack(path)
         robot = (load_robot(cfg.robot) if isinstance(cfg.robot, str)
                  else robot_from_mapping(cfg.robot, file=str(path)))
-        nav = cfg.navigation_params() or None
+        nav = stack_navigation(cfg)
         spawn = Pose2D(*cfg.world.spawn) if cfg.world.spawn is not None else None
         return cls(cfg.world.name, robot, nav, cfg.seed, spawn,
-                   cfg.world.perfect_localization, cfg.sim.physics_rate_hz)
+                   localization="perfect" if cfg.world.perfect_localization else "external",
+                   physics_rate_hz=cfg.sim.physics_rate_hz)
 
     def local_collision(self, pose_odom: Pose2D) -> bool:
         """True if the robot body at ``pose_odom`` touches a lethal cell of the local
@@ -181,9 +313,11 @@ class NavStack:
 
     @property
     def now(self) -> float:
+        """Simulated time (after :meth:`start`)."""
         return self.runtime.now
 
     def run_for(self, seconds: float) -> None:
-        """Advance simulated time."""
+        """Advance simulated time (starting the stack first if needed)."""
+        self.start()
         self.runtime.scheduler.run_for(seconds)
         self.sim.advance()

@@ -18,8 +18,9 @@ Outdoors-to-indoors start-up without a human clicking "2D Pose Estimate":
 3. **Point-to-line ICP** (Censi, ICRA 2008, :mod:`navstack.mapping.icp`) polishes the
    pose against the occupied cells' boundary points.
 
-The result is published as ``/initialpose`` (geometry_msgs/PoseWithCovarianceStamped in
-``map``) for AMCL; if the match response is below ``min_response`` the unrefined guess is
+:class:`~navstack.nodes.initial_pose.InitialPoseNode` publishes the result as
+``/initialpose`` (geometry_msgs/PoseWithCovarianceStamped in ``map``) for AMCL; if the
+match response is below ``min_response`` the unrefined guess is
 published with the GNSS/magnetometer covariance instead, and the reason is kept.
 :func:`navstack.benchmarks.initial_pose.initial_pose_trials` measures the whole chain
 in the simulator (``initial_pose_err_m``).
@@ -34,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from navstack.core.errors import InvalidMessage, TransformError
+from navstack.core.errors import InvalidMessage
 from navstack.core.geometry import normalize_angle
 from navstack.core.msgs import (
     Header,
@@ -51,12 +52,10 @@ from navstack.geo.conversions import LocalCartesian
 from navstack.localization.navsat import fix_rejection_reason
 from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.scan_matcher import LikelihoodGrid, SearchWindow, match_scan
-from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
-from navstack.runtime.node import Node, Runtime
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["InitialPoseEstimate", "InitialPoseNode", "InitialPoseParams", "MapMatcher",
+__all__ = ["InitialPoseEstimate", "InitialPoseParams", "MapMatcher",
            "estimate_initial_pose", "gnss_pose_guess",
            "magnetometer_yaw", "scan_in_base", "surface_points"]
 
@@ -256,71 +255,3 @@ def estimate_initial_pose(matcher: MapMatcher, fix: NavSatFix, field_msg: Magnet
     prior[:2, :2] = rot @ cov[:2, :2] @ rot.T
     prior[2, 2] = p.heading_std ** 2
     return matcher.refine(scan_in_base(scan, lidar_mount), guess, prior)
-
-
-class InitialPoseNode(Node):
-    """Publishes ``/initialpose`` once from ``/gps/fix``, ``/imu/mag``, ``/scan`` and ``/map``
-    (and again after :meth:`request`).  Sensor mounts come from TF (``base_link`` ->
-    frame of each message)."""
-
-    def __init__(self, runtime: Runtime, params: InitialPoseParams,
-                 base_frame: str = "base_link", name: str = "initial_pose") -> None:
-        super().__init__(name, runtime)
-        self.params = params
-        self.base_frame = base_frame
-        self.matcher: MapMatcher | None = None
-        self.fix: NavSatFix | None = None
-        self.mag: MagneticField | None = None
-        self.estimate: InitialPoseEstimate | None = None
-        self.pending = True
-        self.failures = 0
-        self.last_failure = ""
-
-    def on_configure(self) -> None:
-        self.pub = self.create_publisher("/initialpose", PoseWithCovarianceStamped, LATCHED)
-        self.create_subscription("/map", OccupancyGrid, self._on_map, QoS(depth=1, latched=True))
-        self.create_subscription("/gps/fix", NavSatFix, self._on_fix, SENSOR_DATA)
-        self.create_subscription("/imu/mag", MagneticField, self._on_mag, SENSOR_DATA)
-        self.create_subscription("/scan", LaserScan, self._on_scan, SENSOR_DATA)
-
-    def request(self) -> None:
-        """Estimate and publish again with the next scan (e.g. after a kidnapping)."""
-        self.pending = True
-
-    def _on_map(self, msg: OccupancyGrid) -> None:
-        self.matcher = MapMatcher.from_grid(msg, self.params)
-
-    def _on_fix(self, msg: NavSatFix) -> None:
-        if not fix_rejection_reason(msg):
-            self.fix = msg
-
-    def _on_mag(self, msg: MagneticField) -> None:
-        self.mag = msg
-
-    def _mount(self, frame: str) -> Pose2D:
-        return Pose2D() if frame == self.base_frame else self.tf.lookup_pose2d(
-            self.base_frame, frame)
-
-    def _on_scan(self, scan: LaserScan) -> None:
-        if not self.pending or self.matcher is None or self.fix is None or self.mag is None:
-            return
-        t = scan.header.stamp
-        age = self.params.max_input_age
-        if t - self.fix.header.stamp > age or t - self.mag.header.stamp > age:
-            return
-        try:
-            lidar = self._mount(scan.header.frame_id)
-            gps = self._mount(self.fix.header.frame_id)
-            mag = self._mount(self.mag.header.frame_id)
-            est = estimate_initial_pose(self.matcher, self.fix, self.mag, scan, lidar,
-                                        (gps.x, gps.y), mag.theta)
-        except (TransformError, InvalidMessage) as exc:
-            self.failures += 1
-            self.last_failure = str(exc)
-            self.log.warning("initial pose: %s", exc)
-            return
-        self.estimate = est
-        self.pending = False
-        if not est.refined:
-            self.log.warning("initial pose not refined: %s", est.reason)
-        self.pub.publish(est.message(t))

@@ -29,6 +29,10 @@ Differences, on purpose: fixes with ``STATUS_NO_FIX``, a NaN or infinite coordin
 reports no covariance gets a clear count instead of a filter fed zero variance.  All
 later fixes are projected into the datum's UTM zone (robot_localization's ``setUTMZone``
 behaviour), so a route across a zone boundary stays continuous.
+
+:class:`NavsatTransform` is the pure computation; the node on the bus (subscriptions, TF
+lookups of the sensor mounts, the ``frequency`` timer) is
+:class:`~navstack.nodes.navsat.NavsatTransformNode`.
 """
 
 from __future__ import annotations
@@ -41,11 +45,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
-from navstack.core.errors import ExtrapolationError, TransformError
+from navstack.core.errors import TransformError
 from navstack.core.geometry import normalize_angle
 from navstack.core.msgs import (
     Header,
-    Imu,
     NavSatFix,
     NavSatStatus,
     Odometry,
@@ -53,7 +56,6 @@ from navstack.core.msgs import (
     Pose,
     PoseWithCovariance,
     Quaternion,
-    TFMessage,
     Transform,
     TransformStamped,
     TwistWithCovariance,
@@ -61,11 +63,9 @@ from navstack.core.msgs import (
 )
 from navstack.core.params import Params
 from navstack.geo.conversions import LocalCartesian, geodetic_to_utm, utm_forward, utm_to_geodetic
-from navstack.runtime.bus import LATCHED, QoS
-from navstack.runtime.node import Node, Runtime
 
-__all__ = ["CartesianTransform", "NavsatTransform", "NavsatTransformNode",
-           "NavsatTransformParams", "fix_rejection_reason"]
+__all__ = ["CartesianTransform", "NavsatTransform", "NavsatTransformParams",
+           "fix_rejection_reason"]
 
 UNOBSERVED_VARIANCE = 1e6
 """Variance put on the orientation of ``/odometry/gps`` (a fix says nothing about it)."""
@@ -348,94 +348,3 @@ class NavsatTransform:
                 Quaternion.from_yaw(-t.yaw)))
         return TransformStamped(Header(stamp, self.world_frame_id), frame,
                                 Transform(Vector3(t.x, t.y, z), Quaternion.from_yaw(t.yaw)))
-
-
-class NavsatTransformNode(Node):
-    """``navsat_transform_node`` on the bus: ``/imu``, ``/odometry/filtered``, ``/gps/fix``
-    in; ``/odometry/gps``, ``/gps/filtered`` and optionally ``/tf_static`` out."""
-
-    def __init__(self, runtime: Runtime, params: NavsatTransformParams | None = None,
-                 name: str = "navsat_transform") -> None:
-        super().__init__(name, runtime)
-        self.params = params or NavsatTransformParams()
-        self.core = NavsatTransform(self.params)
-        self._start_t = 0.0
-        self._broadcast_done = False
-        self.tf_failures = 0
-        self.last_tf_failure = ""
-
-    def on_configure(self) -> None:
-        p = self.params
-        qos = QoS(depth=1)
-        self.create_subscription("/odometry/filtered", Odometry, self._on_odom, qos)
-        self.create_subscription("/gps/fix", NavSatFix, self._on_fix, qos)
-        if not p.use_odometry_yaw and not p.wait_for_datum:
-            self.create_subscription("/imu", Imu, self._on_imu, qos)
-        self.pub_odom = self.create_publisher("/odometry/gps", Odometry, QoS(depth=10))
-        if p.publish_filtered_gps:
-            self.pub_filtered = self.create_publisher("/gps/filtered", NavSatFix, QoS(depth=10))
-        if p.broadcast_cartesian_transform:
-            self.pub_tf_static = self.create_publisher("/tf_static", TFMessage, LATCHED)
-        self.create_timer(1.0 / p.frequency, self._tick)
-
-    def on_activate(self) -> None:
-        self._start_t = self.now + self.params.delay
-
-    def _offset(self, frame: str, stamp: float) -> tuple[float, float, float, float] | None:
-        """``base_link -> frame`` (x, y, z, yaw); None (counted) when TF cannot give it.
-
-        Looked up at ``stamp``; if that is outside the buffer, the newest transform is
-        accepted when it is at most ``transform_timeout`` seconds older."""
-        base = self.core.base_link_frame_id
-        if not frame or frame == base:
-            return (0.0, 0.0, 0.0, 0.0)
-        try:
-            try:
-                ts = self.tf.lookup(base, frame, stamp)
-            except ExtrapolationError:
-                ts = self.tf.lookup(base, frame, None)
-                if stamp - ts.header.stamp > self.params.transform_timeout:
-                    raise
-        except TransformError as exc:
-            self.tf_failures += 1
-            self.last_tf_failure = str(exc)
-            return None
-        t = ts.transform
-        return (t.translation.x, t.translation.y, t.translation.z, t.rotation.yaw)
-
-    def _on_imu(self, msg: Imu) -> None:
-        if self.core.latest_odom is None:  # base_link's name comes with the odometry
-            return
-        off = self._offset(msg.header.frame_id, msg.header.stamp)
-        if off is not None:
-            self.core.add_heading(normalize_angle(msg.orientation.yaw - off[3]))
-
-    def _on_fix(self, msg: NavSatFix) -> None:
-        off = self._offset(msg.header.frame_id, msg.header.stamp)
-        antenna = (0.0, 0.0, 0.0) if off is None else off[:3]
-        if not self.core.add_fix(msg, antenna):
-            self.log.warning(self.core.last_rejection)
-
-    def _on_odom(self, msg: Odometry) -> None:
-        self.core.add_odometry(msg)
-
-    def _tick(self) -> None:
-        if self.now < self._start_t - 1e-9:
-            return
-        core = self.core
-        if not core.transform_good:
-            if core.compute_transform():
-                self.log.info("navsat transform computed: %s", core.transform)
-            return
-        if self.params.broadcast_cartesian_transform and not self._broadcast_done:
-            ts = core.cartesian_transform_message(self.now)
-            if ts is not None:
-                self.pub_tf_static.publish(TFMessage((ts,)))
-                self._broadcast_done = True
-        odom = core.gps_odometry()
-        if odom is not None:
-            self.pub_odom.publish(odom)
-        if self.params.publish_filtered_gps:
-            fix = core.filtered_gps()
-            if fix is not None:
-                self.pub_filtered.publish(fix)

@@ -62,6 +62,7 @@ from navstack.mapping.slam_params import SlamParams
 FloatArray = NDArray[np.float64]
 
 __all__ = ["LOG_PROFILE", "OfflineResult", "OfflineSlamError", "Progress", "ScanLog",
+           "ScanProgress",
            "log_duration", "metrics", "run_carmen", "run_log", "summary", "warm_up",
            "write_outputs", "write_trajectory_csv"]
 
@@ -94,9 +95,14 @@ class ScanLog:
     reference: FloatArray | None = None
 
 
+Progress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: called as a run moves through its stages."""
+
+
 @dataclass(frozen=True)
-class Progress:
-    """What :func:`run_log` reports to its ``progress`` callback."""
+class ScanProgress:
+    """What :func:`run_log` reports to its ``detail`` callback while mapping: scans done
+    of all, graph nodes, loop closures and the median ms per node of the last 200."""
 
     scans: int
     total: int
@@ -205,7 +211,8 @@ def warm_up() -> None:
 
 
 def run_log(log: ScanLog, params: SlamParams,
-            progress: Callable[[Progress], None] | None = None,
+            progress: Progress | None = None,
+            detail: Callable[[ScanProgress], None] | None = None,
             progress_period: float = 1.0) -> tuple[SlamMapper, FloatArray, FloatArray,
                                                    NDArray[np.int64], float]:
     """Feed every scan of ``log`` to a new mapper and optimise at the end.
@@ -213,7 +220,10 @@ def run_log(log: ScanLog, params: SlamParams,
     Returns the mapper, the final trajectory ``(K, 3)`` (every scan, nodes and the scans
     between them), the time of each ``process_scan`` call [ms], the node index of each
     scan and the wall time [s] (process_scan calls plus the final optimisation).
-    ``progress`` is called about every ``progress_period`` seconds and at the end."""
+    ``progress`` hears the stages ``mapping`` (scans done of all, about every
+    ``progress_period`` seconds) and ``optimise``; ``detail`` gets a
+    :class:`ScanProgress` as often and at the end of the mapping stage."""
+    report = progress or _silent
     mapper = SlamMapper(params, log.laser)
     k_total = len(log.ranges)
     anchors = np.zeros(k_total, dtype=np.int64)
@@ -223,6 +233,7 @@ def run_log(log: ScanLog, params: SlamParams,
     wall = 0.0
     node_ms: list[float] = []
     last_report = time.perf_counter()
+    report("mapping", 0, k_total)
     for k in range(k_total):
         odom = log.odometry[k]
         t0 = time.perf_counter()
@@ -236,17 +247,22 @@ def run_log(log: ScanLog, params: SlamParams,
         node_index[k] = len(mapper.nodes) - 1
         anchor = mapper.last_scan
         anchors[k], relative[k] = (anchor[0], anchor[1]) if anchor else (0, np.zeros(3))
-        if progress is not None and t0 - last_report >= progress_period:
+        if t0 - last_report >= progress_period:
             last_report = t0
-            progress(_progress(mapper, k + 1, k_total, node_ms))
+            report("mapping", k + 1, k_total)
+            if detail is not None:
+                detail(_progress(mapper, k + 1, k_total, node_ms))
+    if detail is not None:
+        detail(_progress(mapper, k_total, k_total, node_ms))
+    report("mapping", k_total, k_total)
+    report("optimise", 0, 1)
     t0 = time.perf_counter()
     mapper.finalize()
     poses = mapper.poses()
     trajectory = se2_compose(poses[anchors], relative) if k_total else np.zeros((0, 3))
     _register_lone_scans(mapper, log, trajectory, node_index)
     wall += time.perf_counter() - t0
-    if progress is not None:
-        progress(_progress(mapper, k_total, k_total, node_ms))
+    report("optimise", 1, 1)
     return mapper, trajectory, scan_ms, node_index, wall
 
 
@@ -277,18 +293,28 @@ def _register_lone_scans(mapper: SlamMapper, log: ScanLog, trajectory: FloatArra
             trajectory[k] = pose
 
 
-def _progress(mapper: SlamMapper, done: int, total: int, node_ms: list[float]) -> Progress:
+def _silent(stage: str, done: int, total: int) -> None:
+    """The default :data:`Progress`: says nothing."""
+
+
+def _progress(mapper: SlamMapper, done: int, total: int, node_ms: list[float]
+              ) -> ScanProgress:
     recent = node_ms[-200:]
-    return Progress(done, total, len(mapper.nodes), mapper.stats.loop_closures,
+    return ScanProgress(done, total, len(mapper.nodes), mapper.stats.loop_closures,
                     statistics.median(recent) if recent else math.nan)
 
 
-def read_scan_log(log_path: str | Path, max_scans: int | None = None
+def read_scan_log(log_path: str | Path, max_scans: int | None = None,
+                  progress: Progress | None = None
                   ) -> tuple[ScanLog, list[SkippedLine], dict[str, int], int, Path]:
     """A CARMEN log as a :class:`ScanLog` (scans with the first scan's laser geometry;
     the others are added to the skipped lines), with the skipped lines, the ignored line
-    counts, the number of scans in the file and its path."""
+    counts, the number of scans in the file and its path.  ``progress`` hears the stage
+    ``read log`` (0/1, 1/1)."""
+    report = progress or _silent
+    report("read log", 0, 1)
     log = read_carmen(log_path)
+    report("read log", 1, 1)
     if not log.scans:
         raise OfflineSlamError(f"{log.path}: no usable laser scans (FLASER / ROBOTLASER1 "
                                f"lines); {len(log.skipped)} lines skipped as garbled")
@@ -320,12 +346,15 @@ def read_scan_log(log_path: str | Path, max_scans: int | None = None
 
 def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None = None, *,
                max_scans: int | None = None, params_file: str = "",
-               progress: Callable[[Progress], None] | None = None) -> OfflineResult:
+               progress: Progress | None = None,
+               detail: Callable[[ScanProgress], None] | None = None) -> OfflineResult:
     """Run SLAM over the laser scans of a CARMEN log (plain or ``.gz``).
 
     ``params_overrides`` are slam_toolbox parameters applied over :data:`LOG_PROFILE`
     (``params_file`` names their file in error messages); ``max_scans`` stops after that
-    many scans; ``progress`` is called about once a second (:class:`Progress`).  Raises
+    many scans; ``progress`` hears the stages ``read log`` (0/1, 1/1), ``mapping`` (scans
+    done of all, about once a second) and ``optimise``, ``detail`` the mapping's
+    :class:`ScanProgress` as often.  Raises
     :class:`~navstack.mapping.carmen.CarmenLogError` if the log cannot be read,
     :class:`~navstack.core.errors.ConfigError` for bad parameters and
     :class:`OfflineSlamError` if the log holds no usable scan.  Garbled lines never abort
@@ -334,17 +363,20 @@ def run_carmen(log_path: str | Path, params_overrides: Mapping[str, Any] | None 
     if max_scans is not None and max_scans < 1:
         raise OfflineSlamError(f"max_scans must be at least 1, got {max_scans}")
     params = log_params(params_overrides, params_file)
-    scan_log, skipped, ignored, in_log, path = read_scan_log(log_path, max_scans)
+    scan_log, skipped, ignored, in_log, path = read_scan_log(log_path, max_scans, progress)
     return score_run(scan_log, params, skipped=skipped, ignored=ignored, scans_in_log=in_log,
-                     path=path, overrides=dict(params_overrides or {}), progress=progress)
+                     path=path, overrides=dict(params_overrides or {}), progress=progress,
+                     detail=detail)
 
 
 def score_run(scan_log: ScanLog, params: SlamParams, *, skipped: list[SkippedLine] | None = None,
               ignored: dict[str, int] | None = None, scans_in_log: int | None = None,
               path: Path | None = None, overrides: dict[str, Any] | None = None,
-              progress: Callable[[Progress], None] | None = None) -> OfflineResult:
+              progress: Progress | None = None,
+              detail: Callable[[ScanProgress], None] | None = None) -> OfflineResult:
     """:func:`run_log` and the scores of its trajectory against the log's reference."""
-    mapper, trajectory, scan_ms, node_index, wall = run_log(scan_log, params, progress)
+    mapper, trajectory, scan_ms, node_index, wall = run_log(scan_log, params, progress,
+                                                            detail)
     made = scan_ms[np.r_[True, np.diff(node_index) > 0]] if scan_ms.size else scan_ms
     ms = float(np.median(made)) if made.size else math.nan
     reference = scan_log.reference

@@ -80,8 +80,9 @@ def load_posegraph(path: str | Path, params: SlamParams | None = None,
     theirs.  See the module docstring for ``start_pose``."""
     src = Path(path)
     if not src.is_file():
-        raise PoseGraphFileError(f"{src}: no such pose graph file; save one with "
-                                 "`navstack slam --save` or SlamMapper serialization")
+        raise PoseGraphFileError(f"{src}: no such pose graph file; write one with "
+                                 "`navstack slam LOG --out DIR` (DIR/map.posegraph) or "
+                                 "SlamMapper serialization")
     try:
         with np.load(src, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}

@@ -17,6 +17,14 @@ running planner/controller/behavior goals, and ends CANCELED.  A failure's reaso
 sentence composed from the failing nodes' records ("could not reach the goal after 6
 recoveries: FollowPath failed: ...", "no path to the goal: planner says ...").
 
+Holds (navstack addition): a :class:`~navstack.core.msgs.NavigationHold` on
+``/navigation/hold`` (a vehicle driver whose link is lost) pauses navigation without
+ending the goal: the running tree is halted -- the planner, controller and behavior
+goals are cancelled, so nothing commands motion and no progress checker counts the
+pause -- and the feedback carries ``paused_reason``.  Holds are kept per source; when
+the last one is released the tree starts again from its root (a fresh plan from where
+the robot is) under the same goal.
+
 Parameter deviation: ``bt_loop_duration`` defaults to 0.05 s (20 Hz, the controller's
 rate) instead of Nav2's 0.01 s; each tick is an event of the simulated clock and 100 Hz
 only multiplies the work without changing what the tree decides.
@@ -37,7 +45,8 @@ from py_trees.common import Access, Status
 from pydantic import Field
 
 from navstack.core.errors import ConfigError, TransformError, did_you_mean
-from navstack.core.msgs import Pose2D, PoseStamped
+from navstack.core.geometry import MAX_COORDINATE
+from navstack.core.msgs import NavigationHold, Pose2D, PoseStamped
 from navstack.core.params import Params
 from navstack.navigation import messages as m
 from navstack.navigation.bt_nodes import (
@@ -57,6 +66,7 @@ from navstack.navigation.trees import (
     release_tree,
 )
 from navstack.runtime.actions import ActionServer, GoalHandle
+from navstack.runtime.bus import LATCHED
 from navstack.runtime.node import LifecycleState, Node, Runtime
 
 NavigatorName = Literal["navigate_to_pose", "navigate_through_poses"]
@@ -83,6 +93,7 @@ class BtNavigatorParams(Params):
     path_blackboard_id: str = "path"
     default_nav_to_pose_bt_xml: str = NAVIGATE_TO_POSE_TREE
     default_nav_through_poses_bt_xml: str = NAVIGATE_THROUGH_POSES_TREE
+    hold_topic: str = "/navigation/hold"
 
 
 @dataclass(frozen=True)
@@ -115,6 +126,9 @@ def pose_problem(poses: tuple[PoseStamped, ...]) -> str | None:
         if not all(math.isfinite(v) for v in values):
             return (f"{what} contains NaN or inf (position ({p.x}, {p.y}, {p.z}), orientation "
                     f"({q.x}, {q.y}, {q.z}, {q.w})); send finite numbers")
+        if any(abs(v) > MAX_COORDINATE for v in (p.x, p.y, p.z)):
+            return (f"{what} position ({p.x:g}, {p.y:g}, {p.z:g}) is outside ±"
+                    f"{MAX_COORDINATE:g} m; goals are in metres in the goal's frame")
         norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
         if abs(norm - 1.0) > 1e-3:
             return (f"{what} orientation quaternion has length {norm:.4f}, not 1; normalise "
@@ -158,6 +172,9 @@ class BtNavigator(Node):
         self._run: _Run | None = None
         self._path_cache = PathCache()
         self._history: deque[tuple[float, float, float]] = deque()
+        self.holds: dict[str, str] = {}
+        """Active holds: source -> reason (see module docstring)."""
+        self.paused_at: float | None = None
 
     # --- lifecycle -------------------------------------------------------------------
     def on_configure(self) -> None:
@@ -168,6 +185,7 @@ class BtNavigator(Node):
             self._servers.append(ActionServer(self.bus, m.NAVIGATE_THROUGH_POSES,
                                               self._on_poses_goal, self._on_cancel))
         self.create_timer(self.params.bt_loop_duration, self._tick)
+        self.create_subscription(self.params.hold_topic, NavigationHold, self._on_hold, LATCHED)
 
     def on_deactivate(self) -> None:
         run = self._run
@@ -299,6 +317,18 @@ class BtNavigator(Node):
             release_tree(self._run.root)
             self._run = None
 
+    # --- holds -------------------------------------------------------------------------
+    def _on_hold(self, msg: NavigationHold) -> None:
+        if msg.hold:
+            self.holds[msg.source] = msg.reason
+        else:
+            self.holds.pop(msg.source, None)
+
+    @property
+    def paused_reason(self) -> str:
+        """Why navigation is on hold ("" when it is not)."""
+        return "; ".join(self.holds.values())
+
     # --- ticking -----------------------------------------------------------------------
     def _get(self, key: str, default: Any = None) -> Any:
         try:
@@ -312,7 +342,16 @@ class BtNavigator(Node):
     def _tick(self) -> None:
         run = self._run
         if run is None:
+            self.paused_at = None
             return
+        if self.holds:
+            if self.paused_at is None:
+                self.paused_at = self.now
+                if run.root.status != Status.INVALID:
+                    run.root.stop(Status.INVALID)  # cancels the running actions
+            self._publish_feedback(run)
+            return
+        self.paused_at = None
         run.root.tick_once()
         if run is not self._run:
             return
@@ -345,7 +384,8 @@ class BtNavigator(Node):
         eta = dist / speed if speed > 0.01 and dist > 0.1 else 0.0  # Nav2 thresholds
         remaining = len(self._get(self.ctx.goals_key, ())) if run.kind != "navigate_to_pose" else 0
         run.handle.publish_feedback(m.NavigateFeedback(
-            pose, now - run.start, eta, int(self._get(RECOVERIES_KEY, 0)), dist, remaining))
+            pose, now - run.start, eta, int(self._get(RECOVERIES_KEY, 0)), dist, remaining,
+            self.paused_reason))
 
     def failure_reason(self) -> tuple[int, str]:
         """Navigator error code and a sentence for the current goal's failure records.

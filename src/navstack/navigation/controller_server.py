@@ -7,22 +7,28 @@ velocity and publishes it.  Parameters are Nav2's (``controller_frequency``,
 ``failure_tolerance``, ``controller_plugins``, ``goal_checker_plugins``,
 ``progress_checker_plugins`` and the plugin sections).  A goal never fails silently:
 every abort carries a FollowPath error code and a sentence naming the cause.
+Speed limits (``nav2_msgs/SpeedLimit`` on ``speed_limit_topic``, from a costmap speed
+filter) are passed to every controller plugin with ``set_speed_limit(limit, percentage)``,
+as Nav2's ``speedLimitCallback`` does; 0 restores the plugins' own maxima.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from pydantic import Field
 
 from navstack.core.errors import ControllerError, InvalidMessage, InvalidPath, TransformError
 from navstack.core.geometry import angle_diff, se2_compose
-from navstack.core.msgs import Odometry, Path, Pose2D, Twist, Twist2D
+from navstack.core.interfaces import Controller, GoalChecker, ProgressChecker
+from navstack.core.msgs import Odometry, Path, Pose2D, SpeedLimit, Twist, Twist2D
 from navstack.core.params import Params
+from navstack.core.plugins import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS
 from navstack.core.polygon import Footprint
+from navstack.core.registry import ClassRegistry
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.messages import (
     FOLLOW_PATH,
@@ -30,14 +36,7 @@ from navstack.navigation.messages import (
     FollowPathFeedback,
     FollowPathGoal,
 )
-from navstack.navigation.plugins import (
-    CONTROLLERS,
-    GOAL_CHECKERS,
-    PROGRESS_CHECKERS,
-    build_plugin,
-    load_class,
-    plugin_section,
-)
+from navstack.navigation.plugins import load_plugin, plugin_section
 from navstack.runtime.actions import ActionServer, GoalHandle
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Node, Runtime
@@ -65,6 +64,8 @@ class ControllerServerParams(Params):
 
 _KNOWN = set(ControllerServerParams.model_fields)
 
+C = TypeVar("C", GoalChecker, ProgressChecker)
+
 
 def path_distance(xy: np.ndarray, x: float, y: float) -> float:
     """Length of the path from its point closest to (x, y) to its end."""
@@ -87,18 +88,19 @@ class ControllerServer(Node):
         self.params = ControllerServerParams.from_mapping(server, file=file, key_path=name)
         p = self.params
         self.local_costmap = local_costmap
-        self.controllers: dict[str, Any] = {}
+        self.controllers: dict[str, Controller] = {}
         for cname in p.controller_plugins:
+            key = f"{name}.{cname}"
             plugin, section = plugin_section(params, cname, "dwb_core::DWBLocalPlanner",
                                              file=file, key_path=name)
-            cls = load_class(CONTROLLERS, plugin, file=file, key_path=f"{name}.{cname}")
-            self.controllers[cname] = build_plugin(cls, section, file=file,
-                                                   key_path=f"{name}.{cname}",
-                                                   footprint=footprint)
-        self.goal_checkers = {
+            cls = load_plugin(CONTROLLERS, plugin, file=file, key_path=key)
+            self.controllers[cname] = cls(
+                cls.params_model.from_mapping(section, file=file, key_path=key),
+                footprint=footprint)
+        self.goal_checkers: dict[str, GoalChecker] = {
             g: self._checker(params, g, GOAL_CHECKERS, "nav2_controller::SimpleGoalChecker",
                              file) for g in p.goal_checker_plugins}
-        self.progress_checkers = {
+        self.progress_checkers: dict[str, ProgressChecker] = {
             c: self._checker(params, c, PROGRESS_CHECKERS,
                              "nav2_controller::SimpleProgressChecker", file)
             for c in p.progress_checker_plugins}
@@ -108,18 +110,24 @@ class ControllerServer(Node):
         self.cycles = 0
         self.last_cmd = Twist2D()
         self._plan_cache: tuple[Path, Pose2D, Path] | None = None
+        self.speed_limit: tuple[float, bool] = (0.0, True)
+        """Last speed limit given to the controllers: ``(limit, percentage)``, 0 = none."""
+        self.rejected_speed_limits = 0
 
-    def _checker(self, params: Mapping[str, Any], name: str, registry: Any, default: str,
-                 file: str) -> Any:
+    def _checker(self, params: Mapping[str, Any], name: str, registry: ClassRegistry[C],
+                 default: str, file: str) -> C:
+        key = f"{self.name}.{name}"
         plugin, section = plugin_section(params, name, default, file=file, key_path=self.name)
-        cls = load_class(registry, plugin, file=file, key_path=f"{self.name}.{name}")
-        return build_plugin(cls, section, file=file, key_path=f"{self.name}.{name}")
+        cls = load_plugin(registry, plugin, file=file, key_path=key)
+        return cls(cls.params_model.from_mapping(section, file=file, key_path=key))
 
     # --- lifecycle ---------------------------------------------------------------------
     def on_configure(self) -> None:
         p = self.params
         self.pub_cmd = self.create_publisher(p.cmd_vel_topic, Twist, QoS(depth=1))
         self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=1))
+        self.create_subscription(p.speed_limit_topic, SpeedLimit, self._on_speed_limit,
+                                 QoS(depth=10))
         self.server: ActionServer[FollowPathGoal] = ActionServer(
             self.bus, FOLLOW_PATH, self._on_goal, self._on_cancel)
         self.create_timer(1.0 / p.controller_frequency, self._cycle)
@@ -129,6 +137,18 @@ class ControllerServer(Node):
 
     def _on_odom(self, msg: Odometry) -> None:
         self._velocity = msg.twist.twist.to_twist2d()
+
+    def _on_speed_limit(self, msg: SpeedLimit) -> None:
+        """Nav2 ``speedLimitCallback``: every controller gets the new limit."""
+        limit = float(msg.speed_limit)
+        if not math.isfinite(limit) or limit < 0.0 or (msg.percentage and limit > 100.0):
+            self.rejected_speed_limits += 1
+            self.log.error("ignoring SpeedLimit %r on %s: the limit must be finite and in "
+                           "[0, 100] %% or >= 0 m/s", limit, self.params.speed_limit_topic)
+            return
+        for controller in self.controllers.values():
+            controller.set_speed_limit(limit, bool(msg.percentage))
+        self.speed_limit = (limit, bool(msg.percentage))
 
     # --- goals --------------------------------------------------------------------------
     def _on_goal(self, handle: GoalHandle[FollowPathGoal]) -> bool | str:
@@ -144,8 +164,10 @@ class ControllerServer(Node):
             # Nav2 semantics: a new path replaces the running one without stopping
             self._goal.canceled(reason="preempted by a new path")
         else:
-            for checker in (*self.goal_checkers.values(), *self.progress_checkers.values()):
-                checker.reset()
+            for goal_checker in self.goal_checkers.values():
+                goal_checker.reset()
+            for progress_checker in self.progress_checkers.values():
+                progress_checker.reset()
             self._last_valid_cmd_t = self.now
         handle.execute()
         self._goal = handle
@@ -200,12 +222,9 @@ class ControllerServer(Node):
             self._goal = None
             return
         progress = next(iter(self.progress_checkers.values()))
-        if not progress.check(pose, self.now):
-            p = progress.params
+        if not progress.check(pose, self.now, goal_pose):
             self._abort(ControllerErrorCode.FAILED_TO_MAKE_PROGRESS,
-                        f"failed to make progress: moved less than "
-                        f"{p.required_movement_radius:.2f} m in "
-                        f"{p.movement_time_allowance:.1f} s")
+                        f"failed to make progress: {progress.failure_message()}")
             return
         controller = self.controllers[goal.controller_id or next(iter(self.controllers))]
         try:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.errors import TransformError
+from navstack.core.errors import ConfigError, TransformError
 from navstack.core.msgs import (
     Header,
     LaserScan,
@@ -31,6 +31,7 @@ from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
 from navstack.costmap.layered_costmap import LayeredCostmap
 from navstack.costmap.obstacle_layer import ObstacleLayer
 from navstack.costmap.static_layer import StaticLayer
+from navstack.navigation.costmap_filter_feed import CostmapFilterFeed
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 
@@ -61,6 +62,11 @@ class CostmapNode(Node):
         self.updates = 0
         self.tf_failures = 0
         self.last_tf_error = ""
+        try:
+            self.filter_feed = CostmapFilterFeed(self)
+        except ConfigError as exc:
+            raise ConfigError(exc.reason, file=file, key_path=exc.key_path,
+                              suggestion=exc.suggestion) from None
 
     @property
     def costmap(self) -> Costmap2D:
@@ -78,6 +84,7 @@ class CostmapNode(Node):
                     topic = "/" + buf.params.topic.lstrip("/")
                     self.create_subscription(topic, LaserScan,
                                              partial(self._on_scan, layer, src), SENSOR_DATA)
+        self.filter_feed.configure()
         self.pub = self.create_publisher(f"/{self.name}/costmap", OccupancyGrid, QoS(depth=1))
         self.bus.advertise_service(f"/{self.name}/clear_entirely_{self.name}",
                                    lambda _req: self.clear_all())
@@ -98,7 +105,7 @@ class CostmapNode(Node):
             try:
                 map_in_costmap = self.tf.lookup_pose2d(self.global_frame, grid.header.frame_id)
             except TransformError as exc:
-                self._tf_failed(exc)
+                self.tf_failed(exc)
                 return
         layer.set_map(grid, map_in_costmap)
 
@@ -112,7 +119,7 @@ class CostmapNode(Node):
                     layer.map_in_costmap = self.tf.lookup_pose2d(self.global_frame,
                                                                  layer.map_frame)
                 except TransformError as exc:
-                    self._tf_failed(exc)
+                    self.tf_failed(exc)
                     continue
                 layer.add_extra_bounds(*self._window_bounds())
 
@@ -124,13 +131,14 @@ class CostmapNode(Node):
         try:
             tfs = self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
         except TransformError as exc:
-            self._tf_failed(exc)
+            self.tf_failed(exc)
             return
         t = tfs.transform
         layer.add_scan(scan, Pose2D(t.translation.x, t.translation.y, t.rotation.yaw),
                        t.translation.z, source)
 
-    def _tf_failed(self, exc: Exception) -> None:
+    def tf_failed(self, exc: Exception) -> None:
+        """Count a failed TF lookup and keep its message (``last_tf_error``)."""
         self.tf_failures += 1
         self.last_tf_error = str(exc)
 
@@ -140,7 +148,7 @@ class CostmapNode(Node):
         try:
             return self.tf.lookup_pose2d(self.global_frame, self.robot_base_frame)
         except TransformError as exc:
-            self._tf_failed(exc)
+            self.tf_failed(exc)
             return None
 
     def update(self) -> None:
@@ -148,7 +156,9 @@ class CostmapNode(Node):
         if pose is None:
             return
         self._track_static_maps()
+        self.filter_feed.before_update()
         self.layered.update_map(pose.x, pose.y, pose.theta, self.now)
+        self.filter_feed.after_update()
         self.updates += 1
 
     def publish(self) -> None:

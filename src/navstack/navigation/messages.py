@@ -168,6 +168,9 @@ class NavigateFeedback:
     number_of_recoveries: int
     distance_remaining: float
     number_of_poses_remaining: int = 0
+    paused_reason: str = ""
+    """navstack addition: why navigation is on hold (``""`` while it runs), e.g. "link
+    lost: ..." from a vehicle driver (``/navigation/hold``)."""
 
 
 @dataclass(frozen=True)

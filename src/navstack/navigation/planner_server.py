@@ -9,7 +9,6 @@ result is also published on ``/plan``.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -27,8 +26,10 @@ from navstack.core.errors import (
     StartOutsideMap,
     TransformError,
 )
+from navstack.core.interfaces import GlobalPlanner
 from navstack.core.msgs import Path, Pose2D, PoseStamped
 from navstack.core.params import Params
+from navstack.core.plugins import PLANNERS
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 from navstack.navigation.costmap_node import CostmapNode
@@ -38,7 +39,7 @@ from navstack.navigation.messages import (
     ComputePathToPoseGoal,
     PlannerErrorCode,
 )
-from navstack.navigation.plugins import PLANNERS, build_plugin, load_class, plugin_section
+from navstack.navigation.plugins import load_plugin, plugin_section
 from navstack.runtime.actions import ActionServer, GoalHandle
 from navstack.runtime.bus import LATCHED
 from navstack.runtime.node import Node, Runtime
@@ -72,23 +73,23 @@ class PlannerServer(Node):
     def __init__(self, runtime: Runtime, params: Mapping[str, Any], global_costmap: CostmapNode,
                  file: str = "", name: str = "planner_server",
                  footprint: Footprint | None = None) -> None:
-        """``footprint`` goes to planners that check the robot's body (Smac Hybrid-A*
-        takes the costmap's footprint, as Nav2's planners do)."""
+        """Each of ``planner_plugins`` is looked up in :data:`navstack.core.plugins.PLANNERS`
+        by its section's ``plugin`` string, built from its ``params_model`` and configured
+        with the global costmap and ``footprint`` (default: the costmap's), which planners
+        that check the robot's body use (Smac Hybrid-A*, as Nav2's planners do)."""
         super().__init__(name, runtime)
         server = {k: v for k, v in params.items() if k in _KNOWN}
         self.params = PlannerServerParams.from_mapping(server, file=file, key_path=name)
         self.global_costmap = global_costmap
-        self.planners: dict[str, Any] = {}
+        body = footprint if footprint is not None else global_costmap.layered.footprint
+        self.planners: dict[str, GlobalPlanner] = {}
         for pname in self.params.planner_plugins:
+            key = f"{name}.{pname}"
             plugin, section = plugin_section(params, pname, "nav2_navfn_planner/NavfnPlanner",
                                              file=file, key_path=name)
-            cls = load_class(PLANNERS, plugin, file=file, key_path=f"{name}.{pname}")
-            extra = ({"footprint": footprint} if footprint is not None
-                     and "footprint" in inspect.signature(cls).parameters else {})
-            planner = build_plugin(cls, section, file=file, key_path=f"{name}.{pname}",
-                                   **extra)
-            if hasattr(planner, "set_costmap_source"):  # footprint + inflation (Smac)
-                planner.set_costmap_source(global_costmap.layered)
+            cls = load_plugin(PLANNERS, plugin, file=file, key_path=key)
+            planner = cls(cls.params_model.from_mapping(section, file=file, key_path=key))
+            planner.configure(global_costmap.layered, body)
             self.planners[pname] = planner
         self.plans_computed = 0
         self.last_path: Path | None = None
@@ -132,7 +133,7 @@ class PlannerServer(Node):
         else:
             start_pose = self.tf.lookup_pose2d(frame, node.robot_base_frame)
         planner = self.planners[planner_id or next(iter(self.planners))]
-        path: Path = planner.plan(start_pose, goal_pose, node.costmap)
+        path = planner.plan(start_pose, goal_pose, node.costmap)
         self.plans_computed += 1
         self.last_path = path
         self.pub_plan.publish(path)

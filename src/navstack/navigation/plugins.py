@@ -1,95 +1,71 @@
-"""Nav2 plugin strings -> navstack classes for the servers (imported lazily).
+"""Loading the servers' plugins from their Nav2 parameter sections.
 
-Each entry names ``module:Class``; the class is built with ``Class(params_dict,
-footprint=...)`` for controllers and ``Class.from_mapping(params_dict, ...)``-style
-factories below for the others.  Both ``pkg::Class`` and ``pkg/Class`` spellings work.
+A server section names its plugins (``planner_plugins: ["GridBased"]``) and gives each a
+section with a ``plugin:`` type string and the plugin's parameters::
+
+    planner_server:
+      ros__parameters:
+        planner_plugins: ["GridBased"]
+        GridBased:
+          plugin: "nav2_navfn_planner/NavfnPlanner"
+          tolerance: 0.5
+
+:func:`plugin_section` splits a section into the type string and the parameters,
+:func:`load_plugin` resolves the type string in one of the registries of
+:mod:`navstack.core.plugins` (importing a built-in plugin's module on first use); the
+server validates the parameters with the class's ``params_model`` and builds it.
+Errors are :class:`~navstack.core.errors.ConfigError` naming the file and key path.
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, TypeVar
 
-from navstack.core.errors import ConfigError, did_you_mean
-from navstack.core.registry import PluginRegistry
+from navstack.core.errors import ConfigError, PluginError, UnknownNameError, did_you_mean
+from navstack.core.registry import ClassRegistry
 
-CONTROLLERS: PluginRegistry[str] = PluginRegistry("controller")
-CONTROLLERS.register("DWB", "navstack.control.dwb.dwb_controller:DWBLocalPlanner",
-                     aliases=("dwb_core::DWBLocalPlanner", "dwb_core/DWBLocalPlanner"))
-CONTROLLERS.register("MPPI", "navstack.control.mppi.controller:MPPIController",
-                     aliases=("nav2_mppi_controller::MPPIController",
-                              "nav2_mppi_controller/MPPIController"))
-CONTROLLERS.register("RegulatedPurePursuit",
-                     "navstack.control.rpp.controller:RegulatedPurePursuitController",
-                     aliases=("nav2_regulated_pure_pursuit_controller::"
-                              "RegulatedPurePursuitController",
-                              "nav2_regulated_pure_pursuit_controller/"
-                              "RegulatedPurePursuitController"))
-
-PLANNERS: PluginRegistry[str] = PluginRegistry("planner")
-PLANNERS.register("Navfn", "navstack.planning.navfn:NavfnPlanner",
-                  aliases=("nav2_navfn_planner/NavfnPlanner", "nav2_navfn_planner::NavfnPlanner"))
-PLANNERS.register("CostAwareAStar", "navstack.planning.astar:CostAwareAStar",
-                  aliases=("nav2_smac_planner/SmacPlanner2D",
-                           "nav2_smac_planner::SmacPlanner2D"))
-PLANNERS.register("SmacPlannerHybrid", "navstack.planning.hybrid_astar.planner:HybridAStar",
-                  aliases=("nav2_smac_planner::SmacPlannerHybrid",
-                           "nav2_smac_planner/SmacPlannerHybrid"))
-PLANNERS.register("ThetaStarPlanner", "navstack.planning.theta_star:ThetaStarPlanner",
-                  aliases=("nav2_theta_star_planner/ThetaStarPlanner",
-                           "nav2_theta_star_planner::ThetaStarPlanner"))
-
-GOAL_CHECKERS: PluginRegistry[str] = PluginRegistry("goal checker")
-GOAL_CHECKERS.register("SimpleGoalChecker", "navstack.control.goal_checker:SimpleGoalChecker",
-                       aliases=("nav2_controller::SimpleGoalChecker",
-                                "nav2_controller/SimpleGoalChecker"))
-GOAL_CHECKERS.register("StoppedGoalChecker", "navstack.control.goal_checker:StoppedGoalChecker",
-                       aliases=("nav2_controller::StoppedGoalChecker",
-                                "nav2_controller/StoppedGoalChecker"))
-
-PROGRESS_CHECKERS: PluginRegistry[str] = PluginRegistry("progress checker")
-PROGRESS_CHECKERS.register("SimpleProgressChecker",
-                           "navstack.control.progress_checker:SimpleProgressChecker",
-                           aliases=("nav2_controller::SimpleProgressChecker",
-                                    "nav2_controller/SimpleProgressChecker"))
-PROGRESS_CHECKERS.register("PoseProgressChecker",
-                           "navstack.control.progress_checker:PoseProgressChecker",
-                           aliases=("nav2_controller::PoseProgressChecker",
-                                    "nav2_controller/PoseProgressChecker"))
+P = TypeVar("P")
 
 
-def load_class(registry: PluginRegistry[str], plugin: str, *, file: str = "",
-               key_path: str = "") -> Any:
-    """The class registered for a Nav2 plugin string; ConfigError naming the key if unknown."""
-    if plugin not in registry:
-        known = registry.names()
-        hint = did_you_mean(plugin, registry.all_names()).strip(" ()")
-        raise ConfigError(f"unknown {registry.kind} plugin '{plugin}'", file=file,
-                          key_path=f"{key_path}.plugin" if key_path else "plugin",
-                          suggestion=hint or f"known: {', '.join(known)}")
-    module, _, attr = registry.get(plugin).partition(":")
-    return getattr(importlib.import_module(module), attr)
+def plugin_section(server_params: Mapping[str, Any], name: str, default_plugin: str | None,
+                   *, file: str = "", key_path: str = "") -> tuple[str, dict[str, Any]]:
+    """``(plugin string, params without 'plugin')`` of the named plugin section.
 
-
-def plugin_section(server_params: Mapping[str, Any], name: str, default_plugin: str, *,
-                   file: str = "", key_path: str = "") -> tuple[str, dict[str, Any]]:
-    """``(plugin string, params without 'plugin')`` of a named plugin section."""
+    ``default_plugin`` is used when the section (or its ``plugin`` key) is absent;
+    ``None`` makes ``plugin`` required.
+    """
     raw = server_params.get(name) or {}
     if not isinstance(raw, Mapping):
         raise ConfigError(f"must be a mapping, got {type(raw).__name__}", file=file,
                           key_path=f"{key_path}.{name}")
     section = dict(raw)
-    plugin = str(section.pop("plugin", default_plugin))
+    plugin = section.pop("plugin", default_plugin)
+    if plugin is None:
+        raise ConfigError("required key is missing", file=file,
+                          key_path=f"{key_path}.{name}.plugin",
+                          suggestion="give the plugin's type, e.g. plugin: \"pkg::Class\"")
+    if not isinstance(plugin, str):
+        raise ConfigError(f"must be a plugin type string, got {plugin!r}", file=file,
+                          key_path=f"{key_path}.{name}.plugin")
     return plugin, section
 
 
-def build_plugin(cls: Any, section: Mapping[str, Any], *, file: str = "", key_path: str = "",
-                 **kwargs: Any) -> Any:
-    """Instantiate a plugin whose first argument is its ``Params`` model.
+def load_plugin(registry: ClassRegistry[P], plugin: str, *, file: str = "",
+                key_path: str = "") -> type[P]:
+    """The class registered for a Nav2 plugin string; ConfigError naming the key if the
+    string is unknown or its module cannot provide it."""
+    where = f"{key_path}.plugin" if key_path else "plugin"
+    try:
+        return registry.get(plugin)
+    except UnknownNameError:
+        hint = did_you_mean(plugin, registry.all_names()).strip(" ()")
+        nav2_types = [n for n in registry.all_names() if "::" in n]
+        raise ConfigError(f"unknown {registry.kind} plugin '{plugin}'", file=file,
+                          key_path=where,
+                          suggestion=hint or f"known: {', '.join(nav2_types)}; a plugin of "
+                          f"your own: import its module first or write "
+                          f"'package.module:ClassName'") from None
+    except PluginError as exc:
+        raise ConfigError(str(exc), file=file, key_path=where) from None
 
-    The Params class is read off a default instance (``cls(**kwargs).params``) so the
-    section is validated with errors naming ``file`` and ``key_path``.
-    """
-    params_type = type(cls(**kwargs).params)
-    return cls(params_type.from_mapping(dict(section), file=file, key_path=key_path), **kwargs)

@@ -23,6 +23,7 @@ from typing import Any
 import yaml
 
 from navstack.core.errors import ConfigError, ConfigErrors, did_you_mean
+from navstack.core.geometry import MAX_COORDINATE
 from navstack.core.msgs import Header, Point, Pose, PoseStamped, Quaternion
 from navstack.core.params import Params
 from navstack.core.tf import QUATERNION_NORMALIZATION_TOLERANCE
@@ -190,6 +191,10 @@ def _number(value: Any, key: str, file: str, errors: list[ConfigError]) -> float
     if not math.isfinite(value):
         errors.append(ConfigError(f"must be a finite number (got {value!r})", file=file,
                                   key_path=key))
+        return 0.0
+    if abs(value) > MAX_COORDINATE:
+        errors.append(ConfigError(f"must be within ±{MAX_COORDINATE:g} m (got {value!r})",
+                                  file=file, key_path=key))
         return 0.0
     return float(value)
 

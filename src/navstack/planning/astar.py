@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from pydantic import Field, field_validator
 
 from navstack.core.params import Params
+from navstack.core.plugins import register_planner
 from navstack.costmap.costmap_2d import (
     INSCRIBED_INFLATED_OBSTACLE,
     MAX_NON_OBSTACLE,
@@ -28,10 +29,6 @@ from navstack.costmap.costmap_2d import (
 )
 from navstack.planning.grid_planner import GridPlannerBase
 from navstack.planning.movingai import MovingAISolver
-
-PLUGIN_NAMES = ("CostAwareAStar", "SmacPlanner2D", "nav2_smac_planner/SmacPlanner2D",
-                "nav2_smac_planner::SmacPlanner2D")
-"""Registry name and Nav2 plugin-string aliases of :class:`CostAwareAStar`."""
 
 
 def smac2d_cost_table(cost_travel_multiplier: float,
@@ -69,15 +66,17 @@ class AStarParams(Params):
         return v
 
 
+@register_planner("CostAwareAStar", nav2="nav2_smac_planner::SmacPlanner2D")
 class CostAwareAStar(GridPlannerBase):
     """``plan(start, goal, costmap, cancel=None) -> Path`` with Smac 2D's cost model."""
 
     name = "CostAwareAStar"
+    params_model = AStarParams
+    params: AStarParams
 
     def __init__(self, params: AStarParams | None = None) -> None:
-        super().__init__()
-        p = params or AStarParams()
-        self.params = p
+        super().__init__(params)
+        p = self.params
         self.tolerance = p.tolerance
         self.allow_unknown = p.allow_unknown
         self.use_final_approach_orientation = p.use_final_approach_orientation

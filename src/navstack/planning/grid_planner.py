@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from abc import ABC, abstractmethod
-from collections.abc import Callable
+from abc import abstractmethod
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,25 +31,26 @@ from navstack.core.errors import (
     StartOccupied,
     StartOutsideMap,
 )
+from navstack.core.interfaces import CancelFn, GlobalPlanner
 from navstack.core.msgs import Path, Pose2D
+from navstack.core.params import Params
 from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
 from navstack.planning.grid_search import FOUND, RUNNING, GridSearchWorkspace
 from navstack.planning.path_utils import cells_to_world, make_path
-
-CancelFn = Callable[[], bool]
 
 
 def fmt_xy(p: Pose2D) -> str:
     return f"({p.x:.2f}, {p.y:.2f})"
 
 
-class GridPlannerBase(ABC):
+class GridPlannerBase(GlobalPlanner):
     """Template for grid planners; subclasses implement :meth:`cost_model`."""
 
     #: Nav2 name of the planner, used in messages.
     name = "grid planner"
 
-    def __init__(self) -> None:
+    def __init__(self, params: Params | None = None) -> None:
+        super().__init__(params)
         self._ws: GridSearchWorkspace | None = None
 
     # --- to be provided by subclasses ------------------------------------------------

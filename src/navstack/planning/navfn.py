@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from navstack.core.params import Params
+from navstack.core.plugins import register_planner
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 from navstack.planning.grid_planner import GridPlannerBase
 
@@ -30,11 +31,6 @@ COST_FACTOR = 0.8
 """NavFn scaling of costmap costs (``COST_FACTOR``)."""
 COST_OBS = 254
 """NavFn obstacle cost; unknown space costs ``COST_OBS - 1`` when allowed."""
-
-PLUGIN_NAMES = ("NavfnPlanner", "nav2_navfn_planner/NavfnPlanner",
-                "nav2_navfn_planner::NavfnPlanner")
-"""Registry name and Nav2 plugin-string aliases of :class:`NavfnPlanner`."""
-
 
 def navfn_cost_table(allow_unknown: bool) -> NDArray[np.float64]:
     """NavFn cell cost for every costmap value 0..255; ``-1`` marks obstacles."""
@@ -60,14 +56,16 @@ class NavfnParams(Params):
     """Last pose takes the heading of the last path segment instead of the goal's."""
 
 
+@register_planner("Navfn", nav2="nav2_navfn_planner::NavfnPlanner")
 class NavfnPlanner(GridPlannerBase):
     """``plan(start, goal, costmap, cancel=None) -> Path`` with NavFn's cost model."""
 
     name = "NavfnPlanner"
+    params_model = NavfnParams
+    params: NavfnParams
 
     def __init__(self, params: NavfnParams | None = None) -> None:
-        super().__init__()
-        self.params = params or NavfnParams()
+        super().__init__(params)
         self.tolerance = self.params.tolerance
         self.allow_unknown = self.params.allow_unknown
         self.use_final_approach_orientation = self.params.use_final_approach_orientation

@@ -35,7 +35,7 @@ the last segment's) at the end.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numba as nb
@@ -51,8 +51,10 @@ from navstack.core.errors import (
     StartOccupied,
     StartOutsideMap,
 )
+from navstack.core.interfaces import CancelFn, GlobalPlanner
 from navstack.core.msgs import Path, Pose2D
 from navstack.core.params import Params
+from navstack.core.plugins import register_planner
 from navstack.costmap.costmap_2d import (
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
@@ -62,12 +64,6 @@ from navstack.costmap.costmap_2d import (
 )
 from navstack.planning.grid_planner import fmt_xy
 from navstack.planning.path_utils import make_path
-
-CancelFn = Callable[[], bool]
-
-PLUGIN_NAMES = ("ThetaStarPlanner", "nav2_theta_star_planner/ThetaStarPlanner",
-                "nav2_theta_star_planner::ThetaStarPlanner")
-"""Registry name and Nav2 plugin-string aliases of :class:`ThetaStarPlanner`."""
 
 RUNNING = 0
 """Status: the expansion budget of this call ran out; call again to continue."""
@@ -399,15 +395,17 @@ class ThetaStarWorkspace:
         return int(self.state[_EXPANSIONS])
 
 
-class ThetaStarPlanner:
+@register_planner("ThetaStarPlanner", nav2="nav2_theta_star_planner::ThetaStarPlanner")
+class ThetaStarPlanner(GlobalPlanner):
     """``plan(start, goal, costmap, cancel=None) -> Path`` with Theta* (module docstring)."""
 
     name = "ThetaStarPlanner"
-    plugin_name = "nav2_theta_star_planner/ThetaStarPlanner"
+    params_model = ThetaStarParams
+    params: ThetaStarParams
 
     def __init__(self, params: ThetaStarParams | Mapping[str, Any] | None = None) -> None:
-        self.params = (params if isinstance(params, ThetaStarParams)
-                       else ThetaStarParams.from_mapping(params))
+        super().__init__(params if isinstance(params, ThetaStarParams)
+                         else ThetaStarParams.from_mapping(params))
         p = self.params
         self._table = theta_star_weight_table(p.w_euc_cost, p.w_traversal_cost,
                                               p.allow_unknown)

@@ -24,6 +24,7 @@ from typing import Any
 from pydantic import Field
 
 from navstack.core.config_files import ROS_PARAMETERS, load_yaml, ros_parameters
+from navstack.core.errors import ConfigError
 from navstack.core.params import Params
 
 __all__ = ["ROS_PARAMETERS", "StackConfig", "load_stack", "load_yaml", "ros_parameters"]
@@ -56,17 +57,38 @@ class StackConfig(Params):
     navigation: str | dict[str, Any] = Field(default_factory=dict)
     source_file: str = ""
 
+    def navigation_file(self) -> Path | None:
+        """The Nav2 parameter file ``navigation`` names (relative to the stack file), or
+        ``None`` when the parameters are inline."""
+        if not isinstance(self.navigation, str):
+            return None
+        if not self.navigation.strip():
+            raise ConfigError("is an empty file name", file=self.source_file,
+                              key_path="navigation", suggestion=(
+                                  "name a Nav2 parameter file, give the Nav2 layout inline, "
+                                  "or leave navigation out for the packaged defaults"))
+        base = Path(self.source_file).parent if self.source_file else Path.cwd()
+        path = Path(self.navigation)
+        return path if path.is_absolute() else base / path
+
     def navigation_params(self) -> dict[str, Any]:
         """The Nav2-layout navigation parameters (loading the referenced file if a path)."""
         if isinstance(self.navigation, str):
-            base = Path(self.source_file).parent if self.source_file else Path.cwd()
-            path = Path(self.navigation)
-            return load_yaml(path if path.is_absolute() else base / path)
+            return load_yaml(self.navigation_file() or self.navigation)
         return dict(self.navigation)
 
 
+STACK_KEYS = ("name", "seed", "robot", "world", "sim", "navigation")
+
+
 def load_stack(path: str | Path) -> StackConfig:
-    """Load and validate a stack file; raises ConfigError naming file and key path."""
+    """Load and validate a stack file; raises ConfigError naming file and key path.
+
+    An empty file is an error (it describes nothing; ``navstack run`` without ``--stack``
+    runs the defaults)."""
     data = load_yaml(path)
+    if not data:
+        raise ConfigError("empty stack file", file=str(path), suggestion=(
+            f"give at least one of {', '.join(STACK_KEYS)}, e.g. 'world: {{name: office}}'"))
     data.setdefault("source_file", str(path))
     return StackConfig.from_mapping(data, file=str(path))

@@ -127,6 +127,12 @@ class Node:
         self._subs.append(sub)
         return sub
 
+    def destroy_subscription(self, sub: Subscription[Any]) -> None:
+        """Stop a subscription made with :meth:`create_subscription` (rclpy's name)."""
+        if sub in self._subs:
+            self._subs.remove(sub)
+            sub.unsubscribe()
+
     def create_timer(self, period: float, callback: Callable[[], Any]) -> None:
         """A periodic callback that runs while the node is ACTIVE."""
         timer = self.runtime.scheduler.create_timer(period, callback) \

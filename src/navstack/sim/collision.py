@@ -29,6 +29,9 @@ from navstack.sim.world import MovingTime, World
 
 FloatArray = NDArray[np.float64]
 
+CLEARANCE_CAP = 3.0
+"""Clearances beyond this [m] are reported as this value (demo and ``navstack report``)."""
+
 
 @njit(cache=True, nogil=True)
 def _point_in_polygon(px: float, py: float, poly: FloatArray) -> bool:
@@ -277,24 +280,49 @@ def grid_polygon_clearance(occ: NDArray[np.bool_], origin_x: float, origin_y: fl
     return best
 
 
-def footprint_clearance(world: World, polygon_world: FloatArray, t: MovingTime,
-                        max_dist: float) -> float:
-    """Distance [m] from the footprint polygon ``(N, 2)`` (world frame) to the nearest
-    static or moving obstacle at time ``t``, capped at ``max_dist``; 0 when it touches
-    one.  What "clearance" means for a long vehicle: a circle about its reference point
-    (``clearance`` minus the circumscribed radius) undercounts by metres."""
+def footprint_clearances(world: World, polygon_world: FloatArray, t: MovingTime,
+                         max_dist: float) -> tuple[float, float | None]:
+    """``(static, moving)``: distance [m] from the footprint polygon ``(N, 2)`` (world
+    frame) to the nearest static obstacle (occupied cell square) and to the nearest moving
+    obstacle at time ``t`` (``None`` when the world has none), each capped at ``max_dist``
+    and 0 when touching.  The one definition of clearance: the body's outline, not a circle
+    about its reference point (which undercounts a long vehicle by metres)."""
     if not max_dist > 0.0 or not math.isfinite(max_dist):
         raise ValueError(f"max_dist must be positive and finite, got {max_dist}")
     poly = np.ascontiguousarray(polygon_world, dtype=np.float64)
-    if footprint_collides(world, poly, t):
+    if polygon_hits_grid(world.occupied, world.origin_x, world.origin_y, world.resolution,
+                         poly):
+        static = 0.0
+    else:
+        static = float(grid_polygon_clearance(world.occupied, world.origin_x, world.origin_y,
+                                              world.resolution, poly, float(max_dist)))
+    if not world.moving_obstacles:
+        return static, None
+    circles, boxes = world.moving_shapes_at(t)
+    return static, moving_clearance(poly, circles, boxes, max_dist)
+
+
+def moving_clearance(poly: FloatArray, circles: FloatArray, boxes: FloatArray,
+                     max_dist: float) -> float:
+    """Distance [m] from the polygon to circles ``(k, 3)`` and boxes ``(b, 4, 2)``,
+    capped at ``max_dist``; 0 when touching one."""
+    poly = np.ascontiguousarray(poly, dtype=np.float64)
+    circles = np.ascontiguousarray(circles, dtype=np.float64).reshape(-1, 3)
+    boxes = np.ascontiguousarray(boxes, dtype=np.float64).reshape(-1, 4, 2)
+    if polygon_hits_moving(poly, circles, boxes):
         return 0.0
-    d = float(grid_polygon_clearance(world.occupied, world.origin_x, world.origin_y,
-                                     world.resolution, poly, float(max_dist)))
-    if world.moving_obstacles:
-        circles, boxes = world.moving_shapes_at(t)
-        for circle in circles:  # centre outside the polygon (no collision): edge distance
-            centre = np.ascontiguousarray(circle[None, :2], dtype=np.float64)
-            d = min(d, max(0.0, float(_polygons_distance(poly, centre)) - float(circle[2])))
-        for box in boxes:
-            d = min(d, float(_polygons_distance(poly, np.ascontiguousarray(box, np.float64))))
+    d = float(max_dist)
+    for circle in circles:  # centre outside the polygon (no collision): edge distance
+        centre = np.ascontiguousarray(circle[None, :2], dtype=np.float64)
+        d = min(d, max(0.0, float(_polygons_distance(poly, centre)) - float(circle[2])))
+    for box in boxes:
+        d = min(d, float(_polygons_distance(poly, np.ascontiguousarray(box, np.float64))))
     return d
+
+
+def footprint_clearance(world: World, polygon_world: FloatArray, t: MovingTime,
+                        max_dist: float) -> float:
+    """Distance [m] from the footprint polygon to the nearest static or moving obstacle
+    (the smaller of :func:`footprint_clearances`)."""
+    static, moving = footprint_clearances(world, polygon_world, t, max_dist)
+    return static if moving is None else min(static, moving)

@@ -9,13 +9,23 @@ Subscribes ``/cmd_vel`` (Twist, body frame); publishes ``/clock``, ``/odom``
 (nav_msgs/Odometry, odom -> base_link), ``/tf`` (odom -> base_link at the odometry
 rate, and map -> odom when ``perfect_localization`` is on so navigation can run before
 localization exists: at 10 Hz, future-dated by 0.1 s as AMCL's ``transform_tolerance``
-does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu`` and ``/ground_truth``
+does), ``/tf_static`` (base_link -> sensor frames), ``/scan``, ``/imu``, ``/ground_truth``, the
+3-D lidar's PointCloud2 when the profile enables one (``/velodyne_points``),
 (the true pose in ``map``), and when enabled ``/gps/fix`` (NavSatFix), ``/gps/vel`` (ENU
 velocity, TwistWithCovarianceStamped) and ``/imu/mag`` (MagneticField) -- topic names
 from the profile.  Each sensor runs on its own timer at its configured rate.
+
+``wired`` names the parts that talk to the stack through a vehicle link instead
+(hardware-in-the-loop: :mod:`navstack.sim.vehicles`): ``"base"`` -- the robot takes its
+motion from the simulated vehicle's firmware, not from ``/cmd_vel``; ``"odometry"``,
+``"imu"``, ``"gnss"``, ``"magnetometer"`` -- the vehicle samples them and sends them over
+the wire, so the node does not publish them (nor, without its own odometry,
+``odom -> base_link`` or the perfect ``map -> odom``).  Static mounts are still published.
 """
 
 from __future__ import annotations
+
+from collections.abc import Collection
 
 from navstack.core.msgs import (
     Clock,
@@ -23,8 +33,13 @@ from navstack.core.msgs import (
     Imu,
     LaserScan,
     MagneticField,
+    Marker,
+    MarkerArray,
     NavSatFix,
     Odometry,
+    Point,
+    PointCloud2,
+    Pose,
     Pose2D,
     TFMessage,
     Transform,
@@ -38,13 +53,22 @@ from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 from navstack.sim.simulator import Simulator
 
+OBSTACLES_PERIOD = 0.1
+"""Period [s] of ``/sim/obstacles`` (the demo samples clearance at this period too)."""
+
 
 class SimulatorNode(Node):
     """Runs :class:`Simulator` physics at ``physics_rate_hz`` and publishes its sensors."""
 
     def __init__(self, runtime: Runtime, sim: Simulator, physics_rate_hz: float = 50.0,
-                 perfect_localization: bool = True, name: str = "simulator") -> None:
+                 perfect_localization: bool = True, name: str = "simulator",
+                 wired: Collection[str] = ()) -> None:
         super().__init__(name, runtime)
+        unknown = set(wired) - WIRED_PARTS
+        if unknown:
+            raise ValueError(f"wired: unknown {sorted(unknown)}; choose from "
+                             f"{sorted(WIRED_PARTS)}")
+        self.wired = frozenset(wired)
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
         self.perfect_localization = perfect_localization
@@ -67,23 +91,34 @@ class SimulatorNode(Node):
         self.pub_scan = self.create_publisher("/scan", LaserScan, SENSOR_DATA)
         self.pub_imu = self.create_publisher("/imu", Imu, SENSOR_DATA)
         self.pub_truth = self.create_publisher("/ground_truth", Odometry, QoS(depth=10))
-        self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
+        if "base" not in self.wired:
+            self.create_subscription("/cmd_vel", Twist, self._on_cmd, QoS(depth=1))
         sensors = self.sim.robot.sensors
         if self.sim.lidar is not None:
             self.create_timer(1.0 / sensors.lidar.rate_hz, self._scan)
-        if self.sim.odometry is not None:
+        if self.sim.lidar3d is not None:
+            self.pub_cloud = self.create_publisher(_topic(sensors.lidar3d.topic), PointCloud2,
+                                                   SENSOR_DATA)
+            self.create_timer(1.0 / sensors.lidar3d.rate_hz, self._cloud)
+        if self.sim.odometry is not None and "odometry" not in self.wired:
             self.create_timer(1.0 / sensors.odometry.rate_hz, self._odom)
-        if self.sim.imu is not None:
+        if self.sim.imu is not None and "imu" not in self.wired:
             self.create_timer(1.0 / sensors.imu.rate_hz, self._imu)
         if sensors.ground_truth.enabled:
             self.create_timer(1.0 / sensors.ground_truth.rate_hz, self._truth)
-        if self.sim.gnss is not None:
+            self.pub_footprint = self.create_publisher("/sim/footprint", Marker,
+                                                       QoS(depth=1, latched=True))
+            if self.sim.world.moving_obstacles:
+                self.pub_obstacles = self.create_publisher("/sim/obstacles", MarkerArray,
+                                                           QoS(depth=1))
+                self.create_timer(OBSTACLES_PERIOD, self._obstacles)
+        if self.sim.gnss is not None and "gnss" not in self.wired:
             self.pub_fix = self.create_publisher(_topic(sensors.gnss.topic), NavSatFix,
                                                  SENSOR_DATA)
             self.pub_gps_vel = self.create_publisher(_topic(sensors.gnss.velocity_topic),
                                                      TwistWithCovarianceStamped, SENSOR_DATA)
             self.create_timer(1.0 / sensors.gnss.rate_hz, self._gnss)
-        if self.sim.magnetometer is not None:
+        if self.sim.magnetometer is not None and "magnetometer" not in self.wired:
             self.pub_mag = self.create_publisher(_topic(sensors.magnetometer.topic),
                                                  MagneticField, SENSOR_DATA)
             self.create_timer(1.0 / sensors.magnetometer.rate_hz, self._mag)
@@ -95,14 +130,22 @@ class SimulatorNode(Node):
             static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
         if self.sim.imu is not None:
             static.append(self._static_tf(sensors.imu.frame_id, sensors.imu.mount))
+        if self.sim.lidar3d is not None:
+            static.append(self._static_tf(sensors.lidar3d.frame_id, sensors.lidar3d.mount))
         if self.sim.gnss is not None:
             static.append(self._static_tf(sensors.gnss.frame_id, sensors.gnss.mount))
         if self.sim.magnetometer is not None:
             static.append(self._static_tf(sensors.magnetometer.frame_id,
                                           sensors.magnetometer.mount))
         self.pub_tf_static.publish(TFMessage(tuple(static)))
+        if sensors.ground_truth.enabled:
+            outline = [Point(float(x), float(y), 0.0) for x, y in self.sim.footprint.polygon]
+            self.pub_footprint.publish(Marker(Header(self.now, "base_link"), "footprint", 0,
+                                              Marker.LINE_STRIP,
+                                              points=(*outline, outline[0])))
         self._last_imu_t = self.now
-        self._odom()
+        if "odometry" not in self.wired:
+            self._odom()
 
     def _static_tf(self, frame: str, mount: object) -> TransformStamped:
         m = mount
@@ -133,6 +176,12 @@ class SimulatorNode(Node):
         if scan is not None:
             self.scans_published += 1
             self.pub_scan.publish(scan)
+
+    def _cloud(self) -> None:
+        self.advance()
+        cloud = self.sim.point_cloud(self.now)
+        if cloud is not None:
+            self.pub_cloud.publish(cloud)
 
     def _odom(self) -> None:
         self.advance()
@@ -184,6 +233,25 @@ class SimulatorNode(Node):
     def _truth(self) -> None:
         self.advance()
         self.pub_truth.publish(self.sim.truth(self.now))
+
+    def _obstacles(self) -> None:
+        self.advance()
+        header = Header(self.now, "map")
+        markers = []
+        for i, (o, clock) in enumerate(zip(self.sim.world.moving_obstacles,
+                                           self.sim.obstacle_clocks, strict=True)):
+            x, y, heading = o.pose_at(clock)
+            if o.shape == "circle":
+                kind, scale = Marker.CYLINDER, Vector3(2 * o.radius, 2 * o.radius, 1.7)
+            else:
+                kind, scale = Marker.CUBE, Vector3(o.size[0], o.size[1], 1.0)
+            markers.append(Marker(header, o.name, i, kind,
+                                  pose=Pose(Point(x, y, 0.0), Quaternion.from_yaw(heading)),
+                                  scale=scale))
+        self.pub_obstacles.publish(MarkerArray(tuple(markers)))
+
+
+WIRED_PARTS = frozenset({"base", "odometry", "imu", "gnss", "magnetometer"})
 
 
 def _topic(name: str) -> str:

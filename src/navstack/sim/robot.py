@@ -104,6 +104,36 @@ class LidarParams(Params):
         return value
 
 
+class Lidar3dParams(Params):
+    """A multi-ring (3-D) lidar, Velodyne VLP-16 class, as a ``sensor_msgs/PointCloud2``.
+
+    ``rings`` beams fanned from ``elevation_min`` to ``elevation_max`` [rad] (VLP-16:
+    16 rings, -15..+15 deg), ``azimuths`` columns over the full circle per revolution
+    (VLP-16 at 10 Hz: 0.2 deg, 1800), ranges ``range_min``..``range_max`` with
+    ``noise_std`` [m] along the beam.  The 2-D world is extruded: static cells are
+    ``obstacle_height`` [m] tall, moving obstacles ``moving_obstacle_height``, and the
+    ground is the plane z = 0 of ``base_link``.  Off unless a profile enables it; the
+    cloud is published on ``topic`` in ``frame_id`` (organised: one row per ring).
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    topic: str = "velodyne_points"
+    frame_id: str = "velodyne"
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=10.0, gt=0.0)
+    rings: int = Field(default=16, ge=1, le=256)
+    elevation_min: float = Field(default=-0.2617993877991494, ge=-1.5, le=1.5)
+    elevation_max: float = Field(default=0.2617993877991494, ge=-1.5, le=1.5)
+    azimuths: int = Field(default=1800, ge=8)
+    range_min: float = Field(default=0.4, ge=0.0)
+    range_max: float = Field(default=100.0, gt=0.0)
+    noise_std: float = Field(default=0.0, ge=0.0)
+    obstacle_height: float = Field(default=2.5, gt=0.0)
+    moving_obstacle_height: float = Field(default=1.7, gt=0.0)
+
+
 class OdometryParams(Params):
     """Wheel odometry (nav_msgs/Odometry in ``frame_id`` -> ``child_frame_id``).
 
@@ -257,6 +287,7 @@ class SensorsParams(Params):
     """
 
     lidar: LidarParams = Field(default_factory=LidarParams)
+    lidar3d: Lidar3dParams = Field(default_factory=Lidar3dParams)
     odometry: OdometryParams = Field(default_factory=OdometryParams)
     imu: ImuParams = Field(default_factory=ImuParams)
     ground_truth: GroundTruthParams = Field(default_factory=GroundTruthParams)
@@ -366,8 +397,10 @@ def load_robot(name_or_path: str | Path,
         raise ConfigError(f"cannot read robot profile: {exc}", file=str(path)) from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"invalid YAML: {exc}", file=str(path)) from None
-    if data is None:
-        data = {}
+    if data is None or data == {}:
+        raise ConfigError("empty robot profile", file=str(path), suggestion=(
+            "give at least 'kinematics' and 'footprint' or 'robot_radius' (see the built-in "
+            "profiles: navstack robots)"))
     if not isinstance(data, Mapping):
         raise ConfigError(f"a robot profile must be a mapping of keys, got "
                           f"{type(data).__name__}", file=str(path), key_path="robot")

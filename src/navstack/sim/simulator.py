@@ -34,6 +34,7 @@ from navstack.core.msgs import (
     MagneticField,
     NavSatFix,
     Odometry,
+    PointCloud2,
     Pose2D,
     Twist2D,
     TwistWithCovarianceStamped,
@@ -41,6 +42,7 @@ from navstack.core.msgs import (
 from navstack.sim.collision import footprint_collides
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, make_model
+from navstack.sim.lidar3d import Lidar3dModel, cast_cloud
 from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
 from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel
@@ -102,6 +104,10 @@ class Simulator:
                              if sensors.magnetometer.enabled else None)
         self.gnss_rng = np.random.default_rng([seed, 1])
         self.magnetometer_rng = np.random.default_rng([seed, 2])
+        self.lidar3d = Lidar3dModel(sensors.lidar3d) if sensors.lidar3d.enabled else None
+        self.lidar3d_rng = np.random.default_rng([seed, 3])
+        self.heights: NDArray[np.float64] | None = None
+        """Per-cell obstacle heights [m] for the 3-D lidar (default: uniform)."""
         self.distance_travelled = 0.0
 
     # --- commands ------------------------------------------------------------------
@@ -246,6 +252,23 @@ class Simulator:
         if self.lidar is None:
             return None
         return self.lidar.measure(self.true_ranges(), now, self.rng)
+
+    def point_cloud(self, now: float) -> PointCloud2 | None:
+        """A 3-D lidar revolution (``None`` without one), :mod:`navstack.sim.lidar3d`."""
+        model = self.lidar3d
+        if model is None:
+            return None
+        p, w, m = model.params, self.world, model.mount
+        if self.heights is None:
+            self.heights = np.full(w.occupied.shape, p.obstacle_height)
+        c, s = math.cos(self.state.yaw), math.sin(self.state.yaw)
+        sx, sy = self.state.x + c * m.x - s * m.y, self.state.y + s * m.x + c * m.y
+        circles, segments = w.moving_at(self.obstacle_clocks)
+        dist = cast_cloud(w.occupied, self.heights, w.origin_x, w.origin_y, w.resolution,
+                          (sx, sy, m.z), self.state.yaw + m.yaw, model.azimuths,
+                          model.elevations, p.range_max, circles, segments,
+                          p.moving_obstacle_height)
+        return model.cloud(dist, now, self.lidar3d_rng)
 
     def odom(self, now: float) -> Odometry | None:
         """The wheel-odometry message for the encoder counts integrated so far."""

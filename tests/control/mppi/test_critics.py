@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 
-from navstack.control.mppi.critic_params import CRITIC_PARAMS
 from navstack.control.mppi.critics import CRITICS, Critic, CriticData, RobotShape
 from navstack.control.mppi.critics.collision import inflation_cost
 from navstack.control.mppi.critics.path import furthest_reached_point
@@ -26,7 +25,7 @@ T, B, DT = 20, 3, 0.05
 def _critic(name: str, model: MotionModel | None = None, shape: RobotShape | None = None,
             **section: object) -> Critic:
     params = MPPIParams.from_mapping({name: section, "critics": [name]})
-    return CRITICS[name](CRITIC_PARAMS[name].from_mapping(section), params,
+    return CRITICS[name](CRITICS[name].params_model.from_mapping(section), params,
                          model or DiffDriveMotionModel(),
                          shape or RobotShape.from_footprint(None))
 

@@ -127,27 +127,30 @@ def test_nav2_defaults() -> None:
     assert (p.prune_distance, p.transform_tolerance, p.enforce_path_inversion) == (1.5, 0.1,
                                                                                    False)
     assert p.motion_model == "DiffDrive" and p.AckermannConstraints.min_turning_r == 0.2
-    assert (p.CostCritic.cost_weight, p.CostCritic.critical_cost, p.CostCritic.collision_cost,
-            p.CostCritic.near_collision_cost, p.CostCritic.trajectory_point_step) == (
+    cost, obstacles = p.critic("CostCritic"), p.critic("ObstaclesCritic")
+    assert (cost.cost_weight, cost.critical_cost, cost.collision_cost,
+            cost.near_collision_cost, cost.trajectory_point_step) == (
         3.81, 300.0, 1000000.0, 253, 2)
-    assert (p.ObstaclesCritic.repulsion_weight, p.ObstaclesCritic.critical_weight,
-            p.ObstaclesCritic.collision_cost) == (1.5, 20.0, 100000.0)
-    assert (p.GoalCritic.cost_weight, p.GoalCritic.threshold_to_consider) == (5.0, 1.4)
-    assert (p.PathAlignCritic.cost_weight, p.PathAlignCritic.offset_from_furthest,
-            p.PathAlignCritic.max_path_occupancy_ratio) == (10.0, 20, 0.07)
-    assert (p.PathFollowCritic.offset_from_furthest, p.PathAngleCritic.cost_weight,
-            p.PathAngleCritic.max_angle_to_furthest) == (6, 2.2, 0.785398)
-    assert p.VelocityDeadbandCritic.cost_weight == 35.0
-    assert p.TwirlingCritic.cost_weight == 10.0
+    assert (obstacles.repulsion_weight, obstacles.critical_weight,
+            obstacles.collision_cost) == (1.5, 20.0, 100000.0)
+    goal, align = p.critic("GoalCritic"), p.critic("PathAlignCritic")
+    assert (goal.cost_weight, goal.threshold_to_consider) == (5.0, 1.4)
+    assert (align.cost_weight, align.offset_from_furthest,
+            align.max_path_occupancy_ratio) == (10.0, 20, 0.07)
+    angle = p.critic("PathAngleCritic")
+    assert (p.critic("PathFollowCritic").offset_from_furthest, angle.cost_weight,
+            angle.max_angle_to_furthest) == (6, 2.2, 0.785398)
+    assert p.critic("VelocityDeadbandCritic").cost_weight == 35.0
+    assert p.critic("TwirlingCritic").cost_weight == 10.0
 
 
 def test_nav2_readme_yaml_loads_as_is() -> None:
     p = MPPIParams.from_mapping(_follow_path(NAV2_README_YAML))
     assert p.batch_size == 2000 and p.prune_distance == 1.7 and p.regenerate_noises
     assert p.critics[-1] == "PreferForwardCritic" and len(p.critics) == 8
-    assert p.PathAlignCritic.cost_weight == 14.0
-    assert p.ObstaclesCritic.collision_cost == 10000.0  # section of an unlisted critic
-    assert p.TwirlingCritic.cost_weight == 10.0
+    assert p.critic("PathAlignCritic").cost_weight == 14.0
+    assert p.critic("ObstaclesCritic").collision_cost == 10000.0  # section of an unlisted critic
+    assert p.critic("TwirlingCritic").cost_weight == 10.0
     ctrl = MPPIController(_follow_path(NAV2_README_YAML))
     assert [c.name for c in ctrl.optimizer.critics] == list(p.critics)
 
@@ -156,8 +159,8 @@ def test_dotted_keys_and_humble_forward_preference() -> None:
     p = MPPIParams.from_mapping({"GoalCritic.cost_weight": 7.0,
                                  "PathAngleCritic": {"forward_preference": False},
                                  "AckermannConstraints.min_turning_r": 1.5})
-    assert p.GoalCritic.cost_weight == 7.0
-    assert p.PathAngleCritic.mode == 1
+    assert p.critic("GoalCritic").cost_weight == 7.0
+    assert p.critic("PathAngleCritic").mode == 1
     assert p.AckermannConstraints.min_turning_r == 1.5
 
 
@@ -170,15 +173,15 @@ def test_golf_cart_yaml_matches_dict() -> None:
     assert (p.time_steps, p.model_dt, p.batch_size) == (56, 0.1, 2000)
     assert (p.motion_model, p.AckermannConstraints.min_turning_r) == ("Ackermann", 5.0)
     assert (p.vx_max, p.vx_min, p.wz_max) == (2.5, -0.35, 1.9)
-    assert (p.ConstraintCritic.cost_weight, p.GoalCritic.cost_weight,
-            p.GoalCritic.threshold_to_consider) == (4.0, 5.0, 1.4)
-    assert (p.GoalAngleCritic.cost_weight, p.GoalAngleCritic.threshold_to_consider) == (3.0,
-                                                                                        0.5)
-    assert (p.PreferForwardCritic.cost_weight,
-            p.PreferForwardCritic.threshold_to_consider) == (5.0, 0.5)
-    assert (p.PathAlignCritic.cost_weight, p.PathFollowCritic.cost_weight,
-            p.PathAngleCritic.cost_weight) == (14.0, 5.0, 2.0)
-    assert p.CostCritic.collision_cost == 1e6
+    assert (p.critic("ConstraintCritic").cost_weight, p.critic("GoalCritic").cost_weight,
+            p.critic("GoalCritic").threshold_to_consider) == (4.0, 5.0, 1.4)
+    goal_angle = p.critic("GoalAngleCritic")
+    assert (goal_angle.cost_weight, goal_angle.threshold_to_consider) == (3.0, 0.5)
+    assert (p.critic("PreferForwardCritic").cost_weight,
+            p.critic("PreferForwardCritic").threshold_to_consider) == (5.0, 0.5)
+    assert (p.critic("PathAlignCritic").cost_weight, p.critic("PathFollowCritic").cost_weight,
+            p.critic("PathAngleCritic").cost_weight) == (14.0, 5.0, 2.0)
+    assert p.critic("CostCritic").collision_cost == 1e6
 
 
 def test_batch_size_zero_names_the_key() -> None:

@@ -26,9 +26,9 @@ from navstack.control.rpp.regulation import (
 )
 from navstack.core.errors import ConfigError, InvalidPath, NoValidControl
 from navstack.core.msgs import Path, Pose2D, Twist2D
+from navstack.core.plugins import CONTROLLERS
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import Costmap2D
-from navstack.navigation.plugins import build_plugin
 
 from .loop import straight_path
 
@@ -225,6 +225,10 @@ def test_params_nav2_defaults_and_config_errors() -> None:
         RegulatedPurePursuitController({"interpolate_curvature_after_goal": True})
     with pytest.raises(ConfigError, match="did you mean 'lookahead_dist'"):
         RegulatedPurePursuitController({"lookahead_distance": 1.0})
-    built = build_plugin(RegulatedPurePursuitController, {"desired_linear_vel": 0.3},
-                         key_path="FollowPath", footprint=None)
+    cls = CONTROLLERS.get("nav2_regulated_pure_pursuit_controller/"
+                          "RegulatedPurePursuitController")
+    assert cls is RegulatedPurePursuitController
+    built = cls(cls.params_model.from_mapping({"desired_linear_vel": 0.3},
+                                              key_path="FollowPath"))
+    assert isinstance(built, RegulatedPurePursuitController)
     assert built.params.desired_linear_vel == 0.3

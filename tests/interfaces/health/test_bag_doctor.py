@@ -25,7 +25,7 @@ from navstack.runtime.recording import DEFAULT_TOPICS, BagRecorder
 
 def _record(path: Path, fault: str, seconds: float,
             topics: tuple[str, ...] = HEALTH_TOPICS) -> None:
-    stack = NavStack("office", seed=0)
+    stack = NavStack("office", seed=0).start()
     recorder = BagRecorder(stack.runtime, path, topics)
     goal = pick_goal(stack)
     inject_fault(stack, fault, goal)

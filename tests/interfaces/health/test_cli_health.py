@@ -23,7 +23,7 @@ def _stack(folder: Path, navigation: str = "") -> Path:
 
 
 def test_check_good_stack_file_passes(tmp_path: Path) -> None:
-    res = runner.invoke(app, ["check", str(_stack(tmp_path)), "--seconds", "3"])
+    res = runner.invoke(app, ["check", "--stack", str(_stack(tmp_path)), "--duration", "3"])
     assert res.exit_code == 0, res.output
     assert "14/14 checks passed\n" in res.output
     for name in ("rate:/scan", "tf", "lifecycle", "cmd_vel_published", "progress"):
@@ -36,7 +36,8 @@ def test_check_stack_with_a_wrong_cmd_vel_topic_fails(tmp_path: Path) -> None:
     nav2 = yaml.safe_load(default_nav2_params_path().read_text())
     nav2["controller_server"]["ros__parameters"]["cmd_vel_topic"] = "/cmd_vel_unstamped"
     (tmp_path / "nav2.yaml").write_text(yaml.safe_dump(nav2))
-    res = runner.invoke(app, ["check", str(_stack(tmp_path, "nav2.yaml")), "--seconds", "3"])
+    res = runner.invoke(app, ["check", "--stack", str(_stack(tmp_path, "nav2.yaml")),
+                              "--duration", "3"])
     assert res.exit_code == 1, res.output
     assert res.output.splitlines()[-1] == "13/14 checks passed; failed: cmd_vel_published"
     assert "0 /cmd_vel messages in 2.0 s of active goal (0.0 Hz, expected 20.0 Hz)" in res.output
@@ -45,17 +46,26 @@ def test_check_stack_with_a_wrong_cmd_vel_topic_fails(tmp_path: Path) -> None:
 def test_check_bad_stack_file_is_one_error_line(tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("world: {name: office, spwan: [1, 1, 0]}\n")
-    res = runner.invoke(app, ["check", str(bad)])
+    res = runner.invoke(app, ["check", "--stack", str(bad)])
     assert res.exit_code == 2
     assert res.output == f"error: {bad}: world.spwan: unknown key (did you mean 'spawn'?)\n"
     missing = tmp_path / "nope.yaml"
-    res = runner.invoke(app, ["check", str(missing)])
+    res = runner.invoke(app, ["check", "--stack", str(missing)])
     assert res.exit_code == 2
     assert res.output == f"error: {missing}: file not found (check the path)\n"
 
 
+def test_check_old_spellings_still_work_with_a_warning(tmp_path: Path) -> None:
+    # `check STACK --seconds S` was the spelling before --stack / --duration
+    res = runner.invoke(app, ["check", str(_stack(tmp_path)), "--seconds", "2"])
+    assert res.exit_code == 0, res.output
+    assert "warning: a positional STACK_FILE is deprecated; use --stack" in res.output
+    assert "warning: --seconds is deprecated; use --duration" in res.output
+    assert "(2 s simulated)" in res.output
+
+
 def test_doctor_cli_names_the_contract_and_exits_1() -> None:
-    res = runner.invoke(app, ["doctor", "--fault", "controller_inactive", "--seconds", "3"])
+    res = runner.invoke(app, ["doctor", "--fault", "controller_inactive", "--duration", "3"])
     assert res.exit_code == 1, res.output
     lines = res.output.splitlines()
     assert lines[0].startswith("doctor on simulated run (controller_inactive: "
@@ -74,7 +84,7 @@ def test_doctor_cli_errors(tmp_path: Path) -> None:
     res = runner.invoke(app, ["doctor", "--bag", str(tmp_path), "--fault", "healthy"])
     assert res.exit_code == 2
     assert res.output == ("error: --bag diagnoses a recording; do not combine it with "
-                          "--world, --robot, --fault or --record\n")
+                          "--world, --robot, --stack, --fault or --record\n")
     res = runner.invoke(app, ["doctor", "--bag", str(tmp_path / "none")])
     assert res.exit_code == 2
     assert res.output.startswith("error: ") and "none" in res.output

@@ -113,7 +113,7 @@ def test_fault_reverts_and_the_robot_drives_again() -> None:
 
 
 def test_unknown_fault_and_no_free_goal_are_typed_errors() -> None:
-    stack = NavStack("office", seed=0)
+    stack = NavStack("office", seed=0).start()
     with pytest.raises(KeyError) as e:
         inject_fault(stack, "tf_stopped")
     assert str(e.value) == ("unknown fault 'tf_stopped'; known: cmd_vel_ignored, "

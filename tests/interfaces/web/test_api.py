@@ -164,7 +164,9 @@ def test_waypoints_followed_in_order(live: Live) -> None:
     for x, y in ((2.5, 5.5), (2.5, 4.0)):  # into the room south-west of the spawn
         r = live.client.post("/api/waypoints", json={"x": x, "y": y}, headers=live.auth())
         assert r.status_code == 200
-    assert live.state()["waypoints"] == r.json()["waypoints"]
+    expected = r.json()["waypoints"]
+    wait_until(lambda: live.state()["waypoints"] == expected, 10,  # the next state frame
+               "the waypoints in the state")
     r = live.client.post("/api/waypoints/go", json={"mode": "follow_waypoints"},
                          headers=live.auth())
     assert r.status_code == 200 and r.json()["task"] == "follow_waypoints"

@@ -48,18 +48,20 @@ def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool
     for t, vx, wz in seen:
         last[t] = (vx, wz)
     assert last == {0.0: (0.4, 0.0), 0.05: (0.0, 0.0), 0.1: (0.0, 0.0), 0.2: (0.0, 0.0)}
-    assert gate.overrides == 2 and gate.latched and gate.latched_at == 0.05
+    # zeros the base got while latched: the latch's own, and the answers at 0.1 and 0.2 s
+    assert gate.overrides == 3 and gate.latched and gate.latched_at == 0.05
     assert gate.latch("again") == 0.05  # idempotent: keeps the first latch time
     assert gate.release() == 0.25
     nav.publish(_cmd(0.25))
     rt.scheduler.run_until(0.3)
-    assert seen[-1] == (0.25, 0.25, 0.0) and gate.overrides == 2
-    status: list[bool] = []
-    rt.bus.subscribe("/e_stop", Bool, lambda m: status.append(m.data))
+    assert seen[-1] == (0.25, 0.25, 0.0) and gate.overrides == 3
+    lock: list[bool] = []
+    rt.bus.subscribe("/emergency_stop", Bool, lambda m: lock.append(m.data))
     rt.scheduler.run_until(0.35)
-    assert status == [False]  # latched state topic, joined late
+    assert lock == [False]  # the twist_mux lock topic, latched, joined late
     assert gate.state() == {"latched": False, "latched_at": 0.05, "released_at": 0.25,
-                            "reason": "", "overrides": 2}
+                            "reason": "", "holder": "", "overrides": 3,
+                            "refused_releases": 0}
 
 
 def test_runner_paces_runs_commands_in_its_thread_and_stops() -> None:

@@ -64,7 +64,7 @@ def test_topic_rates_over_a_sliding_window() -> None:
 
 
 def test_commander_validates_and_orients_waypoints() -> None:
-    stack = NavStack("office", seed=1)
+    stack = NavStack("office", seed=1).start()
     nav = NavCommander(stack)
     with pytest.raises(CommandRejected, match=r"^goal \(nan, 1.0, None\) is not finite"):
         nav.go_to(float("nan"), 1.0)

@@ -9,12 +9,16 @@ sample at its first rejection.
 Lifecycle per control cycle, as in DWB: ``prepare(ctx)`` once, ``score(batch, ctx)``,
 then ``debrief(cmd, ctx)`` with the command finally sent (zero when none was found).
 ``reset()`` runs on a new plan and on :meth:`DWBLocalPlanner.reset`.
+
+A critic is one class with ``params_model`` (its section's model, ``scale`` included) and
+one decorator, :func:`register_critic`; the controller's ``critics`` list names it and
+its parameters sit under that name (``FollowPath.<name>.scale``), as in Nav2.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Generic, TypeVar
 
@@ -27,7 +31,7 @@ from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.msgs import Pose2D, Twist2D
 from navstack.core.params import Params
 from navstack.core.polygon import Footprint
-from navstack.core.registry import PluginRegistry
+from navstack.core.registry import ClassRegistry
 from navstack.costmap.costmap_2d import Costmap2D
 
 FloatArray = NDArray[np.float64]
@@ -117,15 +121,20 @@ class TrajectoryCritic(ABC, Generic[P]):
         """Learn the command actually chosen (stateful critics)."""
 
 
-CRITICS: PluginRegistry[type[TrajectoryCritic[Any]]] = PluginRegistry("dwb critic")
+CRITICS: ClassRegistry[TrajectoryCritic[Any]] = ClassRegistry("dwb critic", TrajectoryCritic)
 """Critic classes by Nav2 name (``PathAlign``), with ``PathAlignCritic`` and
 ``dwb_critics::PathAlignCritic`` accepted as aliases."""
 
 
-def register_critic(name: str, extra_aliases: Iterable[str] = ()) -> Any:
-    """Class decorator: register a critic under ``name`` and its DWB aliases."""
-    aliases = (f"{name}Critic", f"dwb_critics::{name}Critic", *extra_aliases)
-    return CRITICS.decorator(name, aliases)
+def register_critic(name: str, namespace: str = "dwb_critics", extra_aliases: Iterable[str] = ()
+                    ) -> Callable[[type[TrajectoryCritic[Any]]], type[TrajectoryCritic[Any]]]:
+    """Class decorator: register a critic as ``name`` (what ``critics`` lists), with the
+    aliases DWB resolves: ``<name>Critic`` and the plugin type
+    ``<namespace>::<name>Critic`` (both spellings).  A critic of your own package gives
+    its ``namespace`` and is listed by name, by ``<name>.class: "<namespace>::<name>Critic"``
+    or through ``default_critic_namespaces``."""
+    return CRITICS.plugin(name, nav2=f"{namespace}::{name}Critic",
+                          aliases=(f"{name}Critic", *extra_aliases))
 
 
 def resolve_critic(class_name: str, namespaces: Iterable[str]) -> type[TrajectoryCritic[Any]]:

@@ -246,7 +246,7 @@ class RotateBeforeStartParams(CriticParams):
     slowing_factor: float = 5.0
 
 
-@register_critic("RotateBeforeStart", extra_aliases=("navstack::RotateBeforeStartCritic",))
+@register_critic("RotateBeforeStart", namespace="navstack")
 class RotateBeforeStartCritic(TrajectoryCritic[RotateBeforeStartParams]):
     """navstack addition: turn in place toward the path before starting to follow it.
 

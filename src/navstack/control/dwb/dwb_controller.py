@@ -36,7 +36,9 @@ from navstack.control.dwb.trajectory_generator import (
     TrajectoryBatch,
 )
 from navstack.core.errors import ConfigError, InvalidMessage, UnknownNameError
+from navstack.core.interfaces import Controller
 from navstack.core.msgs import Path, Pose2D, Twist2D
+from navstack.core.plugins import register_controller
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import Costmap2D
 
@@ -109,18 +111,21 @@ class DWBEvaluation:
                 for (ci, code), k in zip(pairs, counts, strict=True)}
 
 
-class DWBLocalPlanner:
+@register_controller("DWB", nav2="dwb_core::DWBLocalPlanner")
+class DWBLocalPlanner(Controller):
     """The DWB controller: ``compute(pose, velocity, path, costmap, now) -> Twist2D``.
 
     ``params`` is a :class:`DWBParams` or a Nav2-layout mapping (``FollowPath``
     section); ``footprint`` is needed only by the ``ObstacleFootprint`` critic.
     """
 
-    plugin_name = "dwb_core::DWBLocalPlanner"
+    params_model = DWBParams
+    params: DWBParams
 
     def __init__(self, params: DWBParams | Mapping[str, Any] | None = None, *,
                  footprint: Footprint | None = None) -> None:
-        self.params = params if isinstance(params, DWBParams) else DWBParams.from_mapping(params)
+        super().__init__(params if isinstance(params, DWBParams)
+                         else DWBParams.from_mapping(params), footprint=footprint)
         try:
             gen_cls = TRAJECTORY_GENERATORS.get(self.params.trajectory_generator_name)
         except UnknownNameError as exc:

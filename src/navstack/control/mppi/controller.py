@@ -34,14 +34,17 @@ from navstack.control.mppi.optimizer import Optimizer
 from navstack.control.mppi.params import MPPIParams
 from navstack.control.mppi.path_handler import PathHandler
 from navstack.core.errors import InvalidMessage
+from navstack.core.interfaces import Controller
 from navstack.core.msgs import Path, Pose2D, Twist2D
+from navstack.core.plugins import register_controller
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import Costmap2D
 
 FloatArray = NDArray[np.float64]
 
 
-class MPPIController:
+@register_controller("MPPI", nav2="nav2_mppi_controller::MPPIController")
+class MPPIController(Controller):
     """Model Predictive Path Integral controller (Nav2 semantics, numba kernels).
 
     ``params`` is an :class:`MPPIParams` or a Nav2-layout mapping (the ``FollowPath``
@@ -50,13 +53,13 @@ class MPPIController:
     robot without it).
     """
 
-    plugin_name = "nav2_mppi_controller::MPPIController"
+    params_model = MPPIParams
+    params: MPPIParams
 
     def __init__(self, params: MPPIParams | Mapping[str, Any] | None = None, *,
                  footprint: Footprint | None = None) -> None:
-        self.params = (params if isinstance(params, MPPIParams)
-                       else MPPIParams.from_mapping(params))
-        self.footprint = footprint
+        super().__init__(params if isinstance(params, MPPIParams)
+                         else MPPIParams.from_mapping(params), footprint=footprint)
         self.optimizer = Optimizer(self.params, RobotShape.from_footprint(footprint))
         self.path_handler = PathHandler(self.params)
         self._plan_msg: Path | None = None

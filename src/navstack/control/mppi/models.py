@@ -19,12 +19,13 @@ Holonomic models (Omni) sample and integrate ``vy`` too.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.control.mppi.params import MPPIParams
+if TYPE_CHECKING:
+    from navstack.control.mppi.params import MPPIParams
 
 FloatArray = NDArray[np.float64]
 

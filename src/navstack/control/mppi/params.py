@@ -1,10 +1,12 @@
 """MPPI controller parameters in Nav2's ``nav2_mppi_controller`` layout.
 
 Names and defaults are Nav2 Jazzy's (``Optimizer::getParams``, ``PathHandler::
-initialize``, ``NoiseGenerator::initialize``, ``AckermannMotionModel``); critic sections
-are the models of :mod:`navstack.control.mppi.critic_params`.  A Nav2 ``FollowPath``
+initialize``, ``NoiseGenerator::initialize``, ``AckermannMotionModel``).  A critic's
+section sits next to the controller keys under the critic's name and is validated by
+that critic's own ``params_model`` (defined next to the critic, found through the
+critic registry :data:`navstack.control.mppi.critics.CRITICS`); a Nav2 ``FollowPath``
 section loads as is, nested (``GoalCritic: {cost_weight: 5.0}``) or with dotted keys
-(``GoalCritic.cost_weight: 5.0``).
+(``GoalCritic.cost_weight: 5.0``).  :meth:`MPPIParams.critic` returns a section.
 
 Differences from Nav2, each because a navstack controller is a pure function of
 ``(pose, velocity, path, costmap)``:
@@ -28,23 +30,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, Literal, Self
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, SerializeAsAny, field_validator, model_validator
 
-from navstack.control.mppi.critic_params import (
-    CRITIC_PARAMS,
-    ConstraintCriticParams,
-    CostCriticParams,
-    GoalAngleCriticParams,
-    GoalCriticParams,
-    ObstaclesCriticParams,
-    PathAlignCriticParams,
-    PathAngleCriticParams,
-    PathFollowCriticParams,
-    PreferForwardCriticParams,
-    TwirlingCriticParams,
-    VelocityDeadbandCriticParams,
-)
-from navstack.core.errors import ConfigError, did_you_mean
+from navstack.control.mppi.critics import CRITICS, CriticParams
+from navstack.core.errors import ConfigError, UnknownNameError, did_you_mean
 from navstack.core.params import Params
 
 DEFAULT_CRITICS: tuple[str, ...] = (
@@ -115,33 +104,39 @@ class MPPIParams(Params):
         default_factory=AckermannConstraintsParams)
     TrajectoryVisualizer: TrajectoryVisualizerParams = Field(
         default_factory=TrajectoryVisualizerParams)
-    ConstraintCritic: ConstraintCriticParams = Field(default_factory=ConstraintCriticParams)
-    CostCritic: CostCriticParams = Field(default_factory=CostCriticParams)
-    ObstaclesCritic: ObstaclesCriticParams = Field(default_factory=ObstaclesCriticParams)
-    GoalCritic: GoalCriticParams = Field(default_factory=GoalCriticParams)
-    GoalAngleCritic: GoalAngleCriticParams = Field(default_factory=GoalAngleCriticParams)
-    PathAlignCritic: PathAlignCriticParams = Field(default_factory=PathAlignCriticParams)
-    PathFollowCritic: PathFollowCriticParams = Field(default_factory=PathFollowCriticParams)
-    PathAngleCritic: PathAngleCriticParams = Field(default_factory=PathAngleCriticParams)
-    PreferForwardCritic: PreferForwardCriticParams = Field(
-        default_factory=PreferForwardCriticParams)
-    TwirlingCritic: TwirlingCriticParams = Field(default_factory=TwirlingCriticParams)
-    VelocityDeadbandCritic: VelocityDeadbandCriticParams = Field(
-        default_factory=VelocityDeadbandCriticParams)
+    critic_params: dict[str, SerializeAsAny[CriticParams]] = Field(default_factory=dict)
+    """Validated critic sections by critic name: every listed critic's (defaults where the
+    file gives none) and any other registered critic's section the file gives."""
 
     @field_validator("critics", mode="after")
     @classmethod
     def _known_critics(cls, names: tuple[str, ...]) -> tuple[str, ...]:
-        for name in names:
-            short = name.removeprefix("mppi::critics::")
-            if short not in CRITIC_PARAMS:
-                hint = did_you_mean(short, CRITIC_PARAMS)
-                raise ValueError(f"unknown critic '{name}'{hint}; known: "
-                                 f"{', '.join(CRITIC_PARAMS)}")
-        short_names = tuple(n.removeprefix("mppi::critics::") for n in names)
-        if len(set(short_names)) != len(short_names):
+        canonical = tuple(_critic_name(name) for name in names)
+        if len(set(canonical)) != len(canonical):
             raise ValueError(f"critics lists a critic twice: {list(names)}")
-        return short_names
+        return canonical
+
+    @field_validator("critic_params", mode="before")
+    @classmethod
+    def _section_models(cls, sections: Any) -> Any:
+        """Sections given as mappings (``model_dump`` round trips) become their critic's
+        model; the keys become critic names."""
+        if not isinstance(sections, Mapping):
+            return sections
+        out: dict[str, Any] = {}
+        for key, section in sections.items():
+            name = _critic_name(str(key))
+            model = CRITICS.get(name).params_model
+            out[name] = section if isinstance(section, model) else model.model_validate(
+                section)
+        return out
+
+    @model_validator(mode="after")
+    def _default_sections(self) -> Self:
+        for name in self.critics:  # listed critics without a section use their defaults
+            if name not in self.critic_params:
+                self.critic_params[name] = CRITICS.get(name).params_model()
+        return self
 
     @model_validator(mode="after")
     def _check_ranges(self) -> Self:
@@ -170,27 +165,69 @@ class MPPIParams(Params):
             return abs(1.0 / self.controller_frequency - self.model_dt) < 1e-6
         return self.shift_control_sequence
 
-    def critic(self, name: str) -> Any:
-        """The parameter section of critic ``name``."""
-        return getattr(self, name)
+    def critic(self, name: str) -> CriticParams:
+        """The parameter section of critic ``name`` (its defaults if the file gave none).
+
+        Typed as the base model; ``MyCritic.params_model`` is the concrete type.
+        """
+        canonical = _critic_name(name)
+        section = self.critic_params.get(canonical)
+        return section if section is not None else CRITICS.get(canonical).params_model()
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any] | None, *, file: str = "",
                      key_path: str = "") -> Self:
-        """Validate a Nav2 ``FollowPath`` mapping; sub-section keys may be dotted."""
+        """Validate a Nav2 ``FollowPath`` mapping; sub-section keys may be dotted.
+
+        A mapping under a critic's name (or one listed in ``critics``) is that critic's
+        section, validated by its ``params_model`` with errors naming
+        ``<key_path>.<critic>.<key>``.
+        """
         flat = dict(data or {})
-        nested: dict[str, dict[str, Any]] = {}
         fields = cls.model_fields
+        nested: dict[str, dict[str, Any]] = {}
         for key in list(flat):
             if "." in key:
                 head, tail = key.split(".", 1)
-                if head in fields and head[0].isupper():
+                if head not in fields or head[0].isupper():
                     nested.setdefault(head, {})[tail] = flat.pop(key)
         for head, values in nested.items():
             current = flat.get(head, {})
             if not isinstance(current, Mapping):
                 raise ConfigError(f"must be a mapping of parameters, got {current!r}",
-                                  file=file, key_path=f"{key_path}.{head}" if key_path
-                                  else head)
+                                  file=file, key_path=_join(key_path, head))
             flat[head] = {**dict(current), **values}
+        sections = {str(k): v for k, v in dict(flat.pop("critic_params", {}) or {}).items()}
+        for key in [k for k in flat if k not in fields]:
+            if key in CRITICS:
+                sections[key] = flat.pop(key)
+            else:
+                hint = did_you_mean(key, [*fields, *CRITICS.names()]).strip(" ()")
+                raise ConfigError("unknown key", file=file, key_path=_join(key_path, key),
+                                  suggestion=hint)
+        validated: dict[str, CriticParams] = {}
+        for key, section in sections.items():
+            if not isinstance(section, Mapping):
+                raise ConfigError(f"critic section must be a mapping of parameters, got "
+                                  f"{section!r}", file=file, key_path=_join(key_path, key))
+            model = CRITICS.get(key).params_model
+            validated[CRITICS.canonical(key)] = model.from_mapping(
+                section, file=file, key_path=_join(key_path, key))
+        flat["critic_params"] = validated
         return super().from_mapping(flat, file=file, key_path=key_path)
+
+
+def _critic_name(name: str) -> str:
+    """The registered name of critic ``name`` (``mppi::critics::GoalCritic`` ->
+    ``GoalCritic``); ValueError listing the known critics otherwise."""
+    try:
+        return CRITICS.canonical(name)
+    except UnknownNameError:
+        known = CRITICS.names()
+        short = name.removeprefix("mppi::critics::")
+        raise ValueError(f"unknown critic '{name}'{did_you_mean(short, known)}; known: "
+                         f"{', '.join(known)}") from None
+
+
+def _join(key_path: str, key: str) -> str:
+    return f"{key_path}.{key}" if key_path else key

@@ -12,16 +12,11 @@ from navstack.control.rpp.errors import CollisionAhead, CostmapTooSmall
 from navstack.control.rpp.params import RegulatedPurePursuitParams
 from navstack.control.rpp.path_handler import PathHandler
 
-PLUGIN_NAMES = ("RegulatedPurePursuit",
-                "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController",
-                "nav2_regulated_pure_pursuit_controller/RegulatedPurePursuitController")
-"""Registry name and Nav2 plugin-string aliases of the controller."""
-
 RPPController = RegulatedPurePursuitController
 """Alias: the short navstack name."""
 
 __all__ = [
-    "PLUGIN_NAMES", "CollisionAhead", "CollisionHit", "CostmapTooSmall", "PathHandler",
+    "CollisionAhead", "CollisionHit", "CostmapTooSmall", "PathHandler",
     "RPPCollisionChecker", "RPPController", "RegulatedPurePursuitController",
     "RegulatedPurePursuitParams", "project_arc",
 ]

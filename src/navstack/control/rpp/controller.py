@@ -54,14 +54,19 @@ from navstack.control.rpp.regulation import (
 )
 from navstack.core.errors import InvalidMessage, InvalidPath
 from navstack.core.geometry import normalize_angle
+from navstack.core.interfaces import Controller
 from navstack.core.msgs import Path, Pose2D, Twist2D
+from navstack.core.plugins import register_controller
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import Costmap2D
 
 FloatArray = NDArray[np.float64]
 
 
-class RegulatedPurePursuitController:
+@register_controller(
+    "RegulatedPurePursuit",
+    nav2="nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController")
+class RegulatedPurePursuitController(Controller):
     """``compute(pose, velocity, path, costmap, now) -> Twist2D`` (module docstring).
 
     ``footprint`` is used for collision checks and its inscribed radius for the cost
@@ -69,13 +74,14 @@ class RegulatedPurePursuitController:
     obstacles is underestimated, so the robot slows earlier).
     """
 
-    plugin_name = "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"
+    params_model = RegulatedPurePursuitParams
+    params: RegulatedPurePursuitParams
 
     def __init__(self, params: RegulatedPurePursuitParams | Mapping[str, Any] | None = None,
                  *, footprint: Footprint | None = None) -> None:
-        self.params = (params if isinstance(params, RegulatedPurePursuitParams)
-                       else RegulatedPurePursuitParams.from_mapping(params))
-        self.footprint = footprint
+        super().__init__(params if isinstance(params, RegulatedPurePursuitParams)
+                         else RegulatedPurePursuitParams.from_mapping(params),
+                         footprint=footprint)
         self.collision_checker = RPPCollisionChecker(footprint)
         self.path_handler = PathHandler()
         self._desired_linear_vel = self.params.desired_linear_vel

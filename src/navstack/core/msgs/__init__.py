@@ -4,6 +4,12 @@ Field names follow the ROS 2 message of the same name; arrays are numpy; time is
 seconds.  ``runtime/`` converts to ROS time and CDR at the boundary.
 """
 
+from navstack.core.msgs.diagnostic_msgs import (
+    DiagnosticArray,
+    DiagnosticStatus,
+    KeyValue,
+    NavigationHold,
+)
 from navstack.core.msgs.geometry_msgs import (
     Point,
     Polygon,
@@ -23,9 +29,11 @@ from navstack.core.msgs.geometry_msgs import (
     TwistWithCovarianceStamped,
     Vector3,
 )
+from navstack.core.msgs.nav2_msgs import CostmapFilterInfo, SpeedLimit
 from navstack.core.msgs.sensor_msgs import (
     ColorRGBA,
     Imu,
+    JointState,
     LaserScan,
     MagneticField,
     MapMetaData,
@@ -37,6 +45,8 @@ from navstack.core.msgs.sensor_msgs import (
     Odometry,
     Path,
     PointCloud,
+    PointCloud2,
+    PointField,
     TFMessage,
 )
 from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
@@ -45,9 +55,14 @@ __all__ = [
     "Bool",
     "Clock",
     "ColorRGBA",
+    "CostmapFilterInfo",
+    "DiagnosticArray",
+    "DiagnosticStatus",
     "Float64",
     "Header",
     "Imu",
+    "JointState",
+    "KeyValue",
     "LaserScan",
     "MagneticField",
     "MapMetaData",
@@ -55,11 +70,14 @@ __all__ = [
     "MarkerArray",
     "NavSatFix",
     "NavSatStatus",
+    "NavigationHold",
     "OccupancyGrid",
     "Odometry",
     "Path",
     "Point",
     "PointCloud",
+    "PointCloud2",
+    "PointField",
     "Polygon",
     "Pose",
     "Pose2D",
@@ -68,6 +86,7 @@ __all__ = [
     "PoseWithCovariance",
     "PoseWithCovarianceStamped",
     "Quaternion",
+    "SpeedLimit",
     "String",
     "TFMessage",
     "Transform",

@@ -68,6 +68,104 @@ class PointCloud:
     xyz: NDArray[np.float32] = field(default_factory=lambda: np.zeros((0, 3), np.float32))
 
 
+@dataclass(frozen=True, slots=True)
+class PointField:
+    """sensor_msgs/PointField: one named field of a point (``datatype`` constants below)."""
+
+    INT8 = 1
+    UINT8 = 2
+    INT16 = 3
+    UINT16 = 4
+    INT32 = 5
+    UINT32 = 6
+    FLOAT32 = 7
+    FLOAT64 = 8
+    name: str = ""
+    offset: int = 0
+    datatype: int = 7
+    count: int = 1
+
+
+_POINTFIELD_DTYPES = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 8: "f8"}
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PointCloud2:
+    """sensor_msgs/PointCloud2: ``height`` x ``width`` points of ``point_step`` bytes in
+    ``data`` (uint8), laid out by ``fields``.  An organised cloud from a multi-ring lidar
+    has ``height`` = rings and ``width`` = points per ring.
+
+    :meth:`from_fields` builds one from numpy columns; :meth:`field` reads a column back.
+    """
+
+    header: Header = field(default_factory=Header)
+    height: int = 1
+    width: int = 0
+    fields: tuple[PointField, ...] = ()
+    is_bigendian: bool = False
+    point_step: int = 0
+    row_step: int = 0
+    data: NDArray[np.uint8] = field(default_factory=lambda: np.zeros(0, np.uint8))
+    is_dense: bool = False
+
+    @staticmethod
+    def from_fields(header: Header, columns: dict[str, NDArray[np.generic]],
+                    height: int = 1) -> PointCloud2:
+        """A little-endian cloud with one field per column (all columns of equal length;
+        float32, float64, uint16, ... kept as given), ``height`` rows."""
+        names = list(columns)
+        arrays = [np.ascontiguousarray(columns[n]).reshape(-1) for n in names]
+        n = len(arrays[0]) if arrays else 0
+        if any(len(a) != n for a in arrays):
+            raise ValueError("PointCloud2.from_fields: columns differ in length")
+        if height < 1 or n % height:
+            raise ValueError(f"PointCloud2.from_fields: {n} points do not fill {height} rows")
+        by_dtype = {v: k for k, v in _POINTFIELD_DTYPES.items()}
+        fields, offset, formats = [], 0, []
+        for name, arr in zip(names, arrays, strict=True):
+            code = arr.dtype.newbyteorder("<").str[1:]
+            if code not in by_dtype:
+                raise ValueError(f"PointCloud2.from_fields: unsupported dtype {arr.dtype} "
+                                 f"for field {name!r}")
+            fields.append(PointField(name, offset, by_dtype[code], 1))
+            formats.append("<" + code)
+            offset += arr.dtype.itemsize
+        rec = np.zeros(n, dtype=np.dtype({"names": names, "formats": formats}))
+        for name, arr in zip(names, arrays, strict=True):
+            rec[name] = arr
+        xyz = [columns[c] for c in ("x", "y", "z") if c in columns]
+        dense = bool(all(np.isfinite(np.asarray(c, dtype=np.float64)).all() for c in xyz))
+        return PointCloud2(header, height, n // height, tuple(fields), False, offset,
+                           offset * (n // height), rec.view(np.uint8).reshape(-1), dense)
+
+    def field(self, name: str) -> NDArray[np.generic]:
+        """Column ``name`` as a flat numpy array (a copy)."""
+        f = next((f for f in self.fields if f.name == name), None)
+        if f is None:
+            raise KeyError(f"PointCloud2 has no field {name!r}; fields: "
+                           f"{', '.join(x.name for x in self.fields)}")
+        dtype = np.dtype(("<" if not self.is_bigendian else ">") + _POINTFIELD_DTYPES[f.datatype])
+        view = np.ndarray((self.height * self.width,), dtype=dtype,
+                          buffer=np.ascontiguousarray(self.data).tobytes(), offset=f.offset,
+                          strides=(self.point_step,))
+        return view.copy()
+
+    def xyz(self) -> NDArray[np.float64]:
+        """``(N, 3)`` float64 points."""
+        return np.column_stack([self.field(c).astype(np.float64) for c in "xyz"])
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class JointState:
+    """sensor_msgs/JointState: per joint ``position`` [rad], ``velocity`` [rad/s]."""
+
+    header: Header = field(default_factory=Header)
+    name: tuple[str, ...] = ()
+    position: tuple[float, ...] = ()
+    velocity: tuple[float, ...] = ()
+    effort: tuple[float, ...] = ()
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class Imu:
     """sensor_msgs/Imu.  A covariance with element [0, 0] == -1 means "not provided"."""
@@ -96,6 +194,9 @@ class NavSatStatus:
 
     STATUS_NO_FIX = -1
     STATUS_FIX = 0
+    STATUS_SBAS_FIX = 1
+    STATUS_GBAS_FIX = 2
+    SERVICE_GPS = 1
     status: int = 0
     service: int = 1
 
@@ -105,7 +206,9 @@ class NavSatFix:
     """sensor_msgs/NavSatFix: WGS84 degrees and metres above the ellipsoid."""
 
     COVARIANCE_TYPE_UNKNOWN = 0
+    COVARIANCE_TYPE_APPROXIMATED = 1
     COVARIANCE_TYPE_DIAGONAL_KNOWN = 2
+    COVARIANCE_TYPE_KNOWN = 3
     header: Header = field(default_factory=Header)
     status: NavSatStatus = field(default_factory=NavSatStatus)
     latitude: float = 0.0

@@ -8,14 +8,22 @@ from typing import Annotated
 import typer
 
 from navstack.core.errors import NavstackError
-from navstack.interfaces.cli.common import app, fail
+from navstack.interfaces.cli.common import app, fail, stop_on_sigterm
+from navstack.interfaces.cli.options import (
+    MAX_LIVE_SECONDS,
+    check_out_dir,
+    duration_option,
+    port_option,
+    rate_option,
+    seed_option,
+)
 
 
 @app.command()
 def demo(
     out: Annotated[Path, typer.Option(help="Folder for report.json, report.md and "
                                       "trajectory.png.")] = Path("runs/demo"),
-    seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 1,
+    seed: Annotated[int, seed_option()] = 1,
     world: Annotated[str | None, typer.Option(
         help="World name or path (default: office; campus for --robot golf_cart).")] = None,
     robot: Annotated[str, typer.Option(help="Robot profile (golf_cart: the campus route "
@@ -26,37 +34,75 @@ def demo(
     record: Annotated[bool, typer.Option(
         "--record", help="Also record the run as a rosbag2 (MCAP) in OUT/bag (read it "
                          "with `navstack report OUT/bag`).")] = False,
+    force: Annotated[bool, typer.Option(
+        "--force", help="With --record: replace a bag an earlier run left in "
+                        "OUT/bag.")] = False,
     web: Annotated[bool, typer.Option("--web", help="Serve the web dashboard while the "
                                       "mission runs (paced at --rate).")] = False,
-    port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
+    port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1 while the mission runs.")] = False,
-    foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
-    rate: Annotated[float, typer.Option(help="Real-time factor with --web/--foxglove "
-                                        "(simulated seconds per wall second).")] = 1.0,
+    foxglove_port: Annotated[int, port_option("--foxglove-port",
+                                              help="Foxglove WebSocket port.")] = 8765,
+    rate: Annotated[float, rate_option("Real-time factor with --web/--foxglove "
+                                       "(simulated seconds per wall second).")] = 1.0,
+    link: Annotated[str | None, typer.Option(
+        help="Drive the simulator through the robot's vehicle link: udp (rover VCU on "
+             "loopback) or serial (golf cart Arduinos on ptys).")] = None,
 ) -> None:
-    """Flagship mission: visit named waypoints in order in the simulator, write a report."""
+    """Flagship mission: visit named waypoints in order in the simulator, write a report.
+
+    Every goal has a time limit, so the mission always ends.  SIGTERM ends it like
+    Ctrl-C: a recording is closed and stays readable.
+    """
     from navstack.interfaces.demo import run_demo
     from navstack.interfaces.live_cli import LiveOptions, attach_to_demo
 
+    check_out_dir(out, "--out")
+    bag = out / "bag"
+    if record and bag.exists() and not force:
+        raise fail(f"--record: {bag} already exists (from an earlier run); add --force to "
+                   "replace it, or choose another --out")
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
+    if link not in (None, "udp", "serial"):
+        raise fail(f"--link must be udp or serial, got {link!r}")
     try:
-        report = run_demo(out, seed, world, robot, waypoints, record=record,
-                          attach=attach_to_demo(live) if live.enabled else None)
+        with stop_on_sigterm():
+            report = run_demo(out, seed, world, robot, waypoints, record=record,
+                              replace_bag=force,
+                              attach=attach_to_demo(live) if live.enabled else None,
+                              link=link)  # type: ignore[arg-type]
     except NavstackError as exc:
         raise fail(str(exc)) from None
     if "bag" in report:
         typer.echo(f"recorded {report['bag']['messages']} messages to {report['bag']['path']}")
+    if "link" in report:
+        lat = report["link"]["command_latency"]
+        typer.echo(f"vehicle link ({report['link']['kind']}, {report['link']['vehicle']}): "
+                   f"{report['link']['commands_sent']} commands, added command latency p50 "
+                   f"{lat['p50_ms']:.3f} ms, p95 {lat['p95_ms']:.3f} ms, max "
+                   f"{lat['max_ms']:.3f} ms; link losses {report['link']['link_losses']}")
     verdict = "SUCCESS" if report["success"] else "FAILURE"
+    moving = report["min_clearance_moving_m"]
+    walkers = f", to walkers {moving:.2f} m" if moving is not None else ""
     typer.echo(f"{verdict}: {sum(g['status'] == 'SUCCEEDED' for g in report['goals'])}/"
                f"{len(report['goals'])} goals, {report['collisions']} collisions, min clearance "
-               f"{report['min_clearance_m']:.2f} m, {report['sim_time_s']:.0f} s simulated in "
-               f"{report['wall_time_s']:.0f} s; report in {out}")
+               f"to static obstacles {report['min_clearance_static_m']:.2f} m{walkers}, "
+               f"{report['sim_time_s']:.0f} s simulated in {report['wall_time_s']:.0f} s; "
+               f"report in {out}")
     if not report["success"]:
         raise typer.Exit(code=1)
 
@@ -65,7 +111,7 @@ def demo(
 def run(
     world: Annotated[str, typer.Option(help="World name or path.")] = "office",
     robot: Annotated[str, typer.Option(help="Robot profile.")] = "diff_drive",
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 1,
+    seed: Annotated[int, seed_option("Random seed.")] = 1,
     stack_file: Annotated[Path | None, typer.Option(
         "--stack", help="Stack YAML (robot, world, navigation parameters) instead of "
                         "--world/--robot.")] = None,
@@ -73,31 +119,49 @@ def run(
     slam: Annotated[bool, typer.Option("--slam", help="Map with SLAM while "
                                        "navigating.")] = False,
     web: Annotated[bool, typer.Option("--web", help="Serve the web dashboard.")] = False,
-    port: Annotated[int, typer.Option(help="Dashboard port.")] = 8080,
+    port: Annotated[int, port_option("--port", help="Dashboard port.")] = 8080,
     host: Annotated[str, typer.Option(help="Dashboard address (0.0.0.0 for a phone on "
                                       "the same network).")] = "127.0.0.1",
-    token: Annotated[str | None, typer.Option(help="Dashboard command token (default: "
+    token: Annotated[str | None, typer.Option(help="Dashboard command token (visible to "
+                                              "every user in `ps`: prefer --token-file "
+                                              "or $NAVSTACK_DASHBOARD_TOKEN; default: "
                                               "generated and printed).")] = None,
+    token_file: Annotated[Path | None, typer.Option(help="File holding the dashboard "
+                                                    "token (first line).")] = None,
+    tls_cert: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve "
+                                                  "HTTPS/WSS.")] = None,
+    tls_key: Annotated[Path | None, typer.Option(help="TLS private key (PEM).")] = None,
     foxglove: Annotated[bool, typer.Option("--foxglove", help="Serve Foxglove live on "
                                            "127.0.0.1.")] = False,
-    foxglove_port: Annotated[int, typer.Option(help="Foxglove WebSocket port.")] = 8765,
-    rate: Annotated[float, typer.Option(help="Real-time factor (simulated seconds per "
-                                        "wall second).")] = 1.0,
-    duration: Annotated[float | None, typer.Option(help="Stop after this many simulated "
-                                                   "seconds (default: until Ctrl-C).")] = None,
+    foxglove_port: Annotated[int, port_option("--foxglove-port",
+                                              help="Foxglove WebSocket port.")] = 8765,
+    rate: Annotated[float, rate_option("Real-time factor (simulated seconds per wall "
+                                       "second).")] = 1.0,
+    duration: Annotated[float | None, duration_option(
+        "Stop after this many simulated seconds (default: until Ctrl-C or SIGTERM).",
+        high=MAX_LIVE_SECONDS)] = None,
 ) -> None:
     """Run the stack live in the simulator and watch or command it (--web, --foxglove)."""
     from navstack.interfaces.live_cli import LiveOptions, run_live
     from navstack.interfaces.stack import NavStack
+    from navstack.interfaces.stack_description import LocalizationName
 
     live = LiveOptions(web=web, host=host, port=port, token=token, foxglove=foxglove,
-                       foxglove_port=foxglove_port, real_time_factor=rate)
+                       foxglove_port=foxglove_port, real_time_factor=rate,
+                       token_file=token_file, tls_cert=tls_cert, tls_key=tls_key)
     if not live.enabled:
         raise fail("nothing to watch: add --web and/or --foxglove")
+    if stack_file is not None and (amcl or slam):
+        raise fail("--stack describes the whole stack; do not combine it with --amcl or "
+                   "--slam")
+    if amcl and slam:
+        raise fail("--amcl and --slam exclude each other: SLAM localizes on its own map")
+    localization: LocalizationName = "slam" if slam else "amcl" if amcl else "perfect"
     try:
         stack = (NavStack.from_stack_file(stack_file) if stack_file is not None
-                 else NavStack(world, robot, seed=seed, amcl=amcl, slam=slam))
-        reached = run_live(stack, live, duration)
+                 else NavStack(world, robot, seed=seed, localization=localization))
+        with stop_on_sigterm():
+            reached = run_live(stack, live, duration)
     except NavstackError as exc:
         raise fail(str(exc)) from None
     typer.echo(f"stopped at {reached:.1f} s simulated")

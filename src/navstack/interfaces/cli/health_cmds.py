@@ -8,7 +8,14 @@ from typing import Annotated
 import typer
 
 from navstack.core.errors import NavstackError
-from navstack.interfaces.cli.common import app, fail, one_line
+from navstack.interfaces.cli.common import app, fail, one_line, stop_on_sigterm, warn
+from navstack.interfaces.cli.options import (
+    check_out_dir,
+    duration_option,
+    prefer,
+    seconds_alias,
+    seed_option,
+)
 
 
 @app.command()
@@ -21,14 +28,18 @@ def version() -> None:
 
 @app.command()
 def check(
-    stack_file: Annotated[Path | None, typer.Argument(
-        help="Stack YAML (robot, world, navigation); default: --world and --robot.")] = None,
+    stack_file: Annotated[Path | None, typer.Option(
+        "--stack", help="Stack YAML (robot, world, navigation); default: --world and "
+                        "--robot.")] = None,
     world: Annotated[str, typer.Option(help="World, when no stack file is given.")] = "office",
     robot: Annotated[str, typer.Option(help="Robot profile, when no stack file is given.")]
     = "diff_drive",
-    seconds: Annotated[float, typer.Option(
-        min=0.5, help="Simulated seconds to run with a short goal.")] = 5.0,
-    seed: Annotated[int, typer.Option(help="Random seed, when no stack file is given.")] = 0,
+    duration: Annotated[float, duration_option(
+        "Simulated seconds to run with a short goal.", low=0.5, low_open=False)] = 5.0,
+    seed: Annotated[int, seed_option("Random seed, when no stack file is given.")] = 0,
+    old_stack: Annotated[Path | None, typer.Argument(
+        hidden=True, metavar="[STACK_FILE]", help="Deprecated: use --stack.")] = None,
+    old_seconds: Annotated[float | None, seconds_alias(low=0.5, low_open=False)] = None,
 ) -> None:
     """Run the stack in simulation with a short goal and check its health contracts.
 
@@ -37,22 +48,28 @@ def check(
     """
     from navstack.interfaces.health.session import HealthSession, build_stack
 
+    stack_file = prefer("--stack", stack_file, "a positional STACK_FILE", old_stack, warn)
+    seconds = prefer("--duration", duration, "--seconds", old_seconds, warn)
     try:
-        session = HealthSession(build_stack(stack_file, world, robot, seed))
-        session.run(seconds)
-        results = session.report()
-        session.close()
+        with stop_on_sigterm():
+            session = HealthSession(build_stack(stack_file, world, robot, seed))
+            try:
+                session.run(seconds)
+                results = session.report()
+            finally:
+                session.close()
     except NavstackError as exc:
         raise fail(one_line(exc)) from None
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
     source = str(stack_file) if stack_file is not None else f"{world} / {robot}"
-    table = Table(title=f"navstack check {source} ({seconds:g} s simulated)")
+    table = Table(title=Text(f"navstack check {source} ({seconds:g} s simulated)"))
     for column in ("check", "status", "detail", "fix"):
         table.add_column(column)
-    for r in results:
-        table.add_row(r.name, "ok" if r.ok else "FAIL", r.detail, r.fix)
+    for r in results:  # Text: brackets in details ("[m/s]") are not markup
+        table.add_row(Text(r.name), "ok" if r.ok else "FAIL", Text(r.detail), Text(r.fix))
     Console(width=200).print(table)
     failed = [r.name for r in results if not r.ok]
     typer.echo(f"{len(results) - len(failed)}/{len(results)} checks passed"
@@ -74,29 +91,49 @@ def doctor(
         help="Fault to inject: healthy, tf_map_odom, tf_odom_base, controller_inactive, "
              "cmd_vel_ignored, costmap_lethal, progress_blocked, velocity_limits_zero.")]
     = None,
-    seconds: Annotated[float, typer.Option(
-        min=1.0, help="Simulated seconds (the progress checker needs its 10 s allowance).")]
-    = 15.0,
-    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    duration: Annotated[float, duration_option(
+        "Simulated seconds (the progress checker needs its 10 s allowance).", low=1.0,
+        low_open=False)] = 15.0,
+    seed: Annotated[int, seed_option("Random seed.")] = 0,
+    stack_file: Annotated[Path | None, typer.Option(
+        "--stack", help="Stack YAML to simulate instead of --world/--robot.")] = None,
     record: Annotated[Path | None, typer.Option(
         help="Also record the simulated run here (diagnose it later with --bag).")] = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="With --record: replace a bag already there.")] = False,
+    old_seconds: Annotated[float | None, seconds_alias(low=1.0, low_open=False)] = None,
 ) -> None:
     """Walk the textbook decision tree on a simulated or recorded run and name the broken
     contract (exit 0: none broken, 1: one broken, 2: bad input)."""
     from navstack.interfaces.health.session import HealthSession, build_stack, diagnose_bag
 
+    seconds = prefer("--duration", duration, "--seconds", old_seconds, warn)
+    if bag is not None and (world is not None or robot is not None or fault is not None
+                            or record or stack_file is not None):
+        raise fail("--bag diagnoses a recording; do not combine it with --world, --robot, "
+                   "--stack, --fault or --record")
+    if stack_file is not None and (world is not None or robot is not None):
+        raise fail("--stack names the world and robot; do not combine it with --world or "
+                   "--robot")
+    if record is not None:
+        check_out_dir(record.parent, "--record")
+        if record.exists() and not force:
+            raise fail(f"--record: {record} already exists; add --force to replace it, or "
+                       "choose another path")
     try:
         if bag is not None:
-            if world is not None or robot is not None or fault is not None or record:
-                raise fail("--bag diagnoses a recording; do not combine it with --world, "
-                            "--robot, --fault or --record")
             report = diagnose_bag(bag)
         else:
-            session = HealthSession(build_stack(None, world or "office", robot or "diff_drive",
-                                                seed), fault=fault or "healthy", record=record)
-            session.run(seconds)
-            report = session.diagnose()
-            session.close()
+            with stop_on_sigterm():
+                session = HealthSession(build_stack(stack_file, world or "office",
+                                                    robot or "diff_drive", seed),
+                                        fault=fault or "healthy", record=record,
+                                        replace=force)
+                try:
+                    session.run(seconds)
+                    report = session.diagnose()
+                finally:
+                    session.close()
     except NavstackError as exc:
         raise fail(one_line(exc)) from None
     for line in report.lines():

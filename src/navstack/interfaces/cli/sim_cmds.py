@@ -9,6 +9,7 @@ import typer
 
 from navstack.core.errors import NavstackError
 from navstack.interfaces.cli.common import app, fail, parse_cmd, write_json
+from navstack.interfaces.cli.options import check_out_file, duration_option, seed_option
 
 
 @app.command()
@@ -39,16 +40,27 @@ def sim(
         help="Built-in world name or a world/map YAML path.")] = "office",
     robot: Annotated[str, typer.Option(
         help="Built-in robot profile or a robot YAML path.")] = "diff_drive",
-    duration: Annotated[float, typer.Option(help="Simulated seconds to run.")] = 10.0,
-    cmd: Annotated[str, typer.Option(help="Constant command 'vx,wz' [m/s, rad/s].")] = "0.3,0.0",
-    seed: Annotated[int, typer.Option(help="Random seed (same seed, same run).")] = 0,
+    duration: Annotated[float, duration_option("Simulated seconds to run.")] = 10.0,
+    cmd: Annotated[str, typer.Option(
+        help="Constant command 'vx,wz' [m/s, rad/s], within the robot's velocity "
+             "limits.")] = "0.3,0.0",
+    seed: Annotated[int, seed_option()] = 0,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the report here.")] = None,
 ) -> None:
     """Drive a robot open-loop in a simulated world and report pose, collisions and speed."""
     from navstack.sim.open_loop import run_open_loop
+    from navstack.sim.robot import load_robot
 
     vx, wz = parse_cmd(cmd)
+    if json_out is not None:
+        check_out_file(json_out, "--json")
     try:
+        limits = load_robot(robot).kinematics
+        low = limits.min_vel_x if limits.min_vel_x is not None else -limits.max_vel_x
+        if not low <= vx <= limits.max_vel_x or abs(wz) > limits.max_vel_theta:
+            raise fail(f"--cmd '{cmd}' is outside the limits of robot '{robot}': vx in "
+                       f"[{low:g}, {limits.max_vel_x:g}] m/s, wz in "
+                       f"[{-limits.max_vel_theta:g}, {limits.max_vel_theta:g}] rad/s")
         report = run_open_loop(world, robot, duration, vx, wz, seed)
     except NavstackError as exc:
         raise fail(str(exc)) from None

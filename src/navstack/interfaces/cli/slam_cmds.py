@@ -8,37 +8,69 @@ from typing import Annotated
 import typer
 
 from navstack.core.errors import NavstackError
-from navstack.interfaces.cli.common import app, fail, slam_overrides, write_json
+from navstack.interfaces.cli.common import app, fail, slam_overrides, warn, write_json
+from navstack.interfaces.cli.options import (
+    check_out_dir,
+    check_out_file,
+    number_option,
+    prefer,
+)
+from navstack.interfaces.cli.progress import StageProgress
 from navstack.mapping.map_metrics import TrajectoryScores
 
 
 @app.command()
 def slam(
-    carmen: Annotated[Path, typer.Option(help="CARMEN log (plain text or .gz).")],
+    log: Annotated[Path | None, typer.Argument(
+        metavar="LOG", help="CARMEN log (plain text or .gz).", show_default=False)] = None,
     out: Annotated[Path, typer.Option(help="Folder for map.yaml/.pgm/.png, trajectory.csv, "
-                                      "map.posegraph, graph.g2o and summary.json.")],
+                                      "map.posegraph, graph.g2o and summary.json.")]
+    = Path("runs/slam"),
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the summary here.")]
     = None,
     params: Annotated[Path | None, typer.Option(
         help="slam_toolbox parameter YAML (slam_toolbox: ros__parameters: ...), applied "
              "over the log profile.")] = None,
-    max_scans: Annotated[int | None, typer.Option(min=1, help="Stop after N scans.")] = None,
+    max_scans: Annotated[int | None, number_option(
+        "--max-scans", help="Stop after N scans.", low=1, high=10**9, integer=True)] = None,
+    carmen: Annotated[Path | None, typer.Option(
+        "--carmen", hidden=True, help="Deprecated spelling of the LOG argument.")] = None,
 ) -> None:
-    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its errors."""
-    from navstack.mapping.offline import Progress, run_carmen, summary, warm_up, write_outputs
+    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its errors.
 
-    def progress(p: Progress) -> None:
-        if p.scans < p.total:  # the final report is the summary below
-            typer.echo(f"  {p.scans}/{p.total} scans, {p.nodes} nodes, {p.loop_closures} "
-                       f"loop closures, {p.ms_per_scan:.1f} ms/scan", err=True)
+    Shows progress per stage (read log, mapping, optimise, write outputs) on stderr, and
+    while mapping the scans, nodes, loop closures and ms per scan.
+    """
+    from navstack.mapping.offline import (
+        ScanProgress,
+        run_carmen,
+        summary,
+        warm_up,
+        write_outputs,
+    )
 
+    log = prefer("the LOG argument", log, "--carmen", carmen, warn)
+    if log is None:
+        raise fail("give the CARMEN log: navstack slam LOG --out FOLDER "
+                   "(see 'navstack slam --help')")
+    check_out_dir(out, "--out")
+    if json_out is not None:
+        check_out_file(json_out, "--json")
     try:
         overrides = slam_overrides(params)
         warm_up()
-        result = run_carmen(carmen, overrides, max_scans=max_scans,
-                            params_file=str(params) if params is not None else "",
-                            progress=progress)
-        files = write_outputs(result, out)
+        with StageProgress("slam") as progress:
+
+            def detail(p: ScanProgress) -> None:
+                progress.detail(f"{p.scans}/{p.total} scans, {p.nodes} nodes, "
+                                f"{p.loop_closures} loop closures, "
+                                f"{p.ms_per_scan:.1f} ms/scan")
+
+            result = run_carmen(log, overrides, max_scans=max_scans,
+                                params_file=str(params) if params is not None else "",
+                                progress=progress, detail=detail)
+            progress("write outputs", 0, 1)
+            files = write_outputs(result, out)
     except (NavstackError, OSError) as exc:
         raise fail(str(exc)) from None
     report = summary(result, files)

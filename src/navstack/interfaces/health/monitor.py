@@ -52,11 +52,12 @@ _LIMIT_KEYS = ("max_vel_x", "max_speed_xy", "max_vel_theta", "desired_linear_vel
 
 
 class HealthMonitor:
-    """Watches ``stack`` from construction on; :meth:`report` evaluates the checks."""
+    """Watches ``stack`` from construction on (starting it if it was not yet);
+    :meth:`report` evaluates the checks."""
 
     def __init__(self, stack: NavStack, params: HealthParams | None = None,
                  history: float = 30.0) -> None:
-        self.stack = stack
+        self.stack = stack.start()
         self.params = params or HealthParams()
         self.history = max(history, self.params.window,
                            self.params.movement_time_allowance + self.params.window)
@@ -187,9 +188,11 @@ class HealthMonitor:
         return limits
 
     def _progress_rule(self) -> tuple[float, float] | None:
+        from navstack.control.progress_checker import SimpleProgressChecker
+
         for checker in self.stack.controller.progress_checkers.values():
-            p = checker.params
-            if hasattr(p, "required_movement_radius"):
+            if isinstance(checker, SimpleProgressChecker):
+                p = checker.params
                 return float(p.required_movement_radius), float(p.movement_time_allowance)
         return None
 

@@ -97,15 +97,21 @@ class HealthSession:
 
     def __init__(self, stack: NavStack, params: HealthParams | None = None,
                  fault: str = "healthy", goal: Pose2D | None = None,
-                 record: str | Path | None = None, free_travel: float = 0.3) -> None:
-        self.stack = stack
+                 record: str | Path | None = None, free_travel: float = 0.3,
+                 replace: bool = False) -> None:
+        """``record``: also write a rosbag2 there (``replace``: over an earlier bag)."""
+        self.stack = stack.start()
         self.params = params or HealthParams()
         self.monitor = HealthMonitor(stack, self.params)
-        self.recorder = (BagRecorder(stack.runtime, record, HEALTH_TOPICS)
+        self.recorder = (BagRecorder(stack.runtime, record, HEALTH_TOPICS, replace=replace)
                          if record is not None else None)
-        wait_until_ready(stack)
-        self.goal = goal if goal is not None else pick_goal(stack)
-        self.fault: InjectedFault = inject_fault(stack, fault, self.goal, free_travel)
+        try:
+            wait_until_ready(stack)
+            self.goal = goal if goal is not None else pick_goal(stack)
+            self.fault: InjectedFault = inject_fault(stack, fault, self.goal, free_travel)
+        except BaseException:
+            self.close()  # a recording stays readable
+            raise
         self.navigator = Navigator(stack)
         frame = stack.global_costmap.global_frame
         self.accepted = self.navigator.goToPose(PoseStamped.from_pose2d(self.goal, frame))

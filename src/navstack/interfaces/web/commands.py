@@ -34,6 +34,15 @@ class CommandRejected(NavstackError):
     """A dashboard command cannot be carried out; the message says why and what to do."""
 
 
+class GoalOutOfBounds(CommandRejected):
+    """A goal or waypoint outside the map navigation plans on (``field`` names the
+    offending coordinate)."""
+
+    def __init__(self, message: str, field: str) -> None:
+        super().__init__(message)
+        self.field = field
+
+
 @dataclass
 class _Task:
     kind: TaskKind
@@ -78,8 +87,32 @@ class NavCommander:
         if not (math.isfinite(x) and math.isfinite(y)
                 and (theta is None or math.isfinite(theta))):
             raise CommandRejected(f"goal ({x}, {y}, {theta}) is not finite; send numbers")
+        self._check_bounds(x, y)
         heading = goal_heading(origin or self.robot_pose(), x, y) if theta is None else theta
         return Pose2D(x, y, math.atan2(math.sin(heading), math.cos(heading)))
+
+    def goal_bounds(self) -> tuple[float, float, float, float] | None:
+        """(xmin, ymin, xmax, ymax) [m] of the global costmap when it is in ``frame_id``:
+        goals outside it cannot be planned to (None: no bound known)."""
+        try:
+            node = self.stack.global_costmap
+        except NavstackError:
+            return None
+        if node.global_frame != self.frame_id:
+            return None
+        cm = node.costmap
+        return (cm.origin_x, cm.origin_y, cm.origin_x + cm.size_x * cm.resolution,
+                cm.origin_y + cm.size_y * cm.resolution)
+
+    def _check_bounds(self, x: float, y: float) -> None:
+        bounds = self.goal_bounds()
+        if bounds is None:
+            return
+        xmin, ymin, xmax, ymax = bounds
+        for name, v, lo, hi in (("x", x, xmin, xmax), ("y", y, ymin, ymax)):
+            if not lo <= v <= hi:
+                raise GoalOutOfBounds(f"{name}={v:g} is outside the map: {name} must lie in "
+                                      f"[{lo:g}, {hi:g}] m ({self.frame_id} frame)", name)
 
     def _stamped(self, pose: Pose2D) -> PoseStamped:
         return PoseStamped(Header(self.stack.now, self.frame_id), pose.to_pose())
@@ -157,11 +190,11 @@ class NavCommander:
                                "distance_remaining": None, "eta": None, "recoveries": 0,
                                "navigation_time": None, "current_waypoint": None,
                                "waypoint_count": 0, "waypoint_name": "", "goal": None,
-                               "goals": []}
+                               "goals": [], "goal_id": None}
         if task is None:
             return out
         h = task.handle
-        out.update(task=task.kind, status=h.status.value,
+        out.update(task=task.kind, status=h.status.value, goal_id=h.goal_id,
                    goals=[[p.x, p.y, p.theta] for p in task.poses])
         if h.result is not None:
             out["reason"] = h.result.error_msg

@@ -2,10 +2,9 @@
 
 The algorithm is pure (no bus, no clock): :class:`AmclFilter` = :class:`AmclMap` +
 motion model (:mod:`.motion_model`) + laser model (:mod:`.sensor_model`) + the KLD-sampling
-particle set (:mod:`.particle_filter`).  :class:`~navstack.localization.amcl.node.AmclNode`
-is the runtime shell (``/scan``, ``/map``, ``/initialpose`` in; ``/amcl_pose``,
-``/particle_cloud``, ``map -> odom`` out); it is imported lazily so that using the filter
-alone never imports the runtime.
+particle set (:mod:`.particle_filter`).  :class:`~navstack.nodes.amcl.AmclNode` in the node
+layer is the runtime shell (``/scan``, ``/map``, ``/initialpose`` in; ``/amcl_pose``,
+``/particle_cloud``, ``map -> odom`` out).
 
 References: Thrun, Burgard & Fox, *Probabilistic Robotics*, MIT Press 2005 (ch. 4 particle
 filters, ch. 5 motion models, ch. 6 measurement models, ch. 8 MCL/Augmented_MCL/KLD);
@@ -13,8 +12,6 @@ Fox, "Adapting the sample size in particle filters through KLD-sampling", IJRR 2
 """
 
 from __future__ import annotations
-
-from typing import TYPE_CHECKING, Any
 
 from navstack.localization.amcl.motion_model import (
     DifferentialMotionModel,
@@ -38,20 +35,10 @@ from navstack.localization.amcl.sensor_model import (
     prepare_scan,
 )
 
-if TYPE_CHECKING:
-    from navstack.localization.amcl.node import AmclNode
-
 __all__ = [
-    "AmclFilter", "AmclMap", "AmclMapError", "AmclNode", "AmclParams", "Cluster",
+    "AmclFilter", "AmclMap", "AmclMapError", "AmclParams", "Cluster",
     "DifferentialMotionModel", "InitialPose", "InvalidInitialPose", "LaserData",
     "LaserModel", "OmniMotionModel", "ParticleFilter", "kld_limit", "make_motion_model",
     "odometry_delta", "prepare_scan",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    if name == "AmclNode":
-        from navstack.localization.amcl.node import AmclNode
-
-        return AmclNode
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

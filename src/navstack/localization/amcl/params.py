@@ -3,7 +3,7 @@
 Every field is a parameter of Nav2's ``amcl`` node (``amcl: ros__parameters:`` in a Nav2
 parameter file), with the C++ default of ``nav2_amcl/src/amcl_node.cpp``; load a Nav2
 file's section with ``AmclParams.from_mapping(ros_parameters(data, "amcl"), file=...)``
-(:func:`navstack.runtime.config.ros_parameters`).
+(:func:`navstack.core.config_files.ros_parameters`).
 
 Where navstack interprets a value (Nav2 leaves it implicit):
 

@@ -19,7 +19,7 @@
   KLD-varying set size), and the averages are *not* reset to zero after an injection
   (``reset_averages_on_injection=False``): the reset re-baselines ``w_slow`` on the very
   update the random particles dilute, so recovery stops after one injection — in the
-  office kidnap test of ``tests/localization/test_amcl_node.py`` 0 of 5 seeds recovered
+  office kidnap test of ``tests/nodes/test_amcl.py`` 0 of 5 seeds recovered
   with the reset and 5 of 5 without it.
 * **Estimate** (amcl ``pf_cluster_stats``): occupied bins touching each other (also
   diagonally, and across the +-pi yaw seam) form clusters; the estimate is the weighted

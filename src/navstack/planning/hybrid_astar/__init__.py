@@ -11,7 +11,6 @@ from navstack.planning.hybrid_astar.checks import (
 )
 from navstack.planning.hybrid_astar.curves import DUBIN, REEDS_SHEPP, sample, shortest
 from navstack.planning.hybrid_astar.params import (
-    PLUGIN_NAMES,
     HybridAStarParams,
     SmacSmootherParams,
     TurningRadiusTooSmall,
@@ -21,7 +20,7 @@ from navstack.planning.hybrid_astar.plan_types import HybridPlan
 from navstack.planning.hybrid_astar.planner import HybridAStar
 
 __all__ = [
-    "DUBIN", "PLUGIN_NAMES", "REEDS_SHEPP", "HybridAStar", "HybridAStarParams", "HybridPlan",
+    "DUBIN", "REEDS_SHEPP", "HybridAStar", "HybridAStarParams", "HybridPlan",
     "SmacSmootherParams", "TurningRadiusTooSmall", "golf_cart_hybrid_params", "max_curvature",
     "path_collision", "pose_collision", "sample", "shortest", "travel_directions",
 ]

@@ -22,10 +22,6 @@ from pydantic import Field, model_validator
 from navstack.core.errors import ConfigError, PlannerError
 from navstack.core.params import Params
 
-PLUGIN_NAMES = ("SmacPlannerHybrid", "nav2_smac_planner/SmacPlannerHybrid",
-                "nav2_smac_planner::SmacPlannerHybrid")
-"""Registry name and Nav2 plugin-string aliases of the Hybrid-A* planner."""
-
 
 class TurningRadiusTooSmall(PlannerError, ConfigError):
     """``minimum_turning_radius`` is smaller than one cell of the search grid.

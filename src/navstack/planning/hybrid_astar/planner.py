@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,7 +34,9 @@ from navstack.core.errors import (
     StartOutsideMap,
 )
 from navstack.core.geometry import normalize_angle
+from navstack.core.interfaces import CancelFn, GlobalPlanner
 from navstack.core.msgs import Path, Pose2D
+from navstack.core.plugins import register_planner
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import (
     INSCRIBED_INFLATED_OBSTACLE,
@@ -74,18 +75,19 @@ from navstack.planning.hybrid_astar.plan_types import (
 from navstack.planning.hybrid_astar.smoother import smooth
 from navstack.planning.hybrid_astar.workspace import SearchWorkspace
 
-CancelFn = Callable[[], bool]
 
-
-class HybridAStar:
+@register_planner("SmacPlannerHybrid", nav2="nav2_smac_planner::SmacPlannerHybrid")
+class HybridAStar(GlobalPlanner):
     """Smac Hybrid-A*; see the module docstring."""
 
     name = "SmacPlannerHybrid"
+    params_model = HybridAStarParams
+    params: HybridAStarParams
 
     def __init__(self, params: HybridAStarParams | None = None,
                  footprint: Footprint | NDArray[np.float64] | None = None, *,
                  inflation: tuple[float, float] | None = None) -> None:
-        self.params = params or HybridAStarParams()
+        super().__init__(params)
         if footprint is None:
             footprint = make_footprint()
         self.footprint = (footprint if isinstance(footprint, Footprint)
@@ -113,13 +115,18 @@ class HybridAStar:
     def set_costmap_source(self, layered: LayeredCostmap) -> None:
         """Take footprint and inflation from a layered costmap (its first InflationLayer),
         as Nav2's plugin does from ``Costmap2DROS``."""
+        self.configure(layered, layered.footprint)
+
+    def configure(self, costmap: LayeredCostmap, footprint: Footprint) -> None:
+        """Check ``footprint`` and read the inflation of ``costmap``'s first
+        InflationLayer (the planner server's hook, Nav2 ``configure``)."""
         inflation = None
-        for layer in layered.layers:
+        for layer in costmap.layers:
             if isinstance(layer, InflationLayer):
                 inflation = (layer.effective_inflation_radius,
                              layer.params.cost_scaling_factor)
                 break
-        self.set_footprint(layered.footprint, inflation)
+        self.set_footprint(footprint, inflation)
 
     def _grid(self, costmap: Costmap2D) -> tuple[NDArray[np.uint8], float, int]:
         p = self.params

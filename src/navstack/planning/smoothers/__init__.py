@@ -19,15 +19,8 @@ from navstack.planning.smoothers.savitzky_golay import (
 )
 from navstack.planning.smoothers.simple import SimpleSmoother, SimpleSmootherParams
 
-PLUGIN_NAMES = {
-    "SimpleSmoother": ("nav2_smoother::SimpleSmoother", "nav2_smoother/SimpleSmoother"),
-    "SavitzkyGolaySmoother": ("nav2_smoother::SavitzkyGolaySmoother",
-                              "nav2_smoother/SavitzkyGolaySmoother"),
-}
-"""Registry names and Nav2 plugin-string aliases of the smoothers."""
-
 __all__ = [
-    "PLUGIN_NAMES", "SavitzkyGolaySmoother", "SavitzkyGolaySmootherParams", "SimpleSmoother",
+    "SavitzkyGolaySmoother", "SavitzkyGolaySmootherParams", "SimpleSmoother",
     "SimpleSmootherParams", "SmootherTimedOut", "find_directional_path_segments",
     "savitzky_golay_coefficients", "update_approximate_path_orientations",
 ]

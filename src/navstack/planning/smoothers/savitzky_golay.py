@@ -29,8 +29,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
+from navstack.core.interfaces import Smoother
 from navstack.core.msgs import Path
 from navstack.core.params import Params
+from navstack.core.plugins import register_smoother
 from navstack.costmap.costmap_2d import Costmap2D
 from navstack.planning.smoothers.common import (
     CollisionGuard,
@@ -83,15 +85,17 @@ def savitzky_golay_pass(xy: FloatArray, coeffs: FloatArray) -> FloatArray:
     return out
 
 
-class SavitzkyGolaySmoother:
+@register_smoother("SavitzkyGolaySmoother", nav2="nav2_smoother::SavitzkyGolaySmoother")
+class SavitzkyGolaySmoother(Smoother):
     """``smooth(path, costmap=None, max_time=None) -> Path`` (module docstring)."""
 
-    plugin_name = "nav2_smoother::SavitzkyGolaySmoother"
+    params_model = SavitzkyGolaySmootherParams
+    params: SavitzkyGolaySmootherParams
 
     def __init__(self, params: SavitzkyGolaySmootherParams | Mapping[str, Any] | None = None
                  ) -> None:
-        self.params = (params if isinstance(params, SavitzkyGolaySmootherParams)
-                       else SavitzkyGolaySmootherParams.from_mapping(params))
+        super().__init__(params if isinstance(params, SavitzkyGolaySmootherParams)
+                         else SavitzkyGolaySmootherParams.from_mapping(params))
         self.coefficients = savitzky_golay_coefficients(self.params.window_size,
                                                         self.params.poly_order)
         self.reverted_passes = 0

@@ -25,7 +25,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from navstack.core.interfaces import Smoother
 from navstack.core.msgs import Path
+from navstack.core.plugins import register_smoother
 from navstack.costmap.costmap_2d import Costmap2D
 from navstack.planning import path_utils
 from navstack.planning.smoothers.common import (
@@ -99,14 +101,16 @@ def simple_smooth_kernel(orig: FloatArray, w_data: float, w_smooth: float, toler
     return new, CONVERGED, its
 
 
-class SimpleSmoother:
+@register_smoother("SimpleSmoother", nav2="nav2_smoother::SimpleSmoother")
+class SimpleSmoother(Smoother):
     """``smooth(path, costmap=None, max_time=None) -> Path`` (module docstring)."""
 
-    plugin_name = "nav2_smoother::SimpleSmoother"
+    params_model = SimpleSmootherParams
+    params: SimpleSmootherParams
 
     def __init__(self, params: SimpleSmootherParams | Mapping[str, Any] | None = None) -> None:
-        self.params = (params if isinstance(params, SimpleSmootherParams)
-                       else SimpleSmootherParams.from_mapping(params))
+        super().__init__(params if isinstance(params, SimpleSmootherParams)
+                         else SimpleSmootherParams.from_mapping(params))
         self.last_status: list[int] = []
         """Kernel status of each pass of the last call (CONVERGED, MAX_ITS, COLLISION)."""
 

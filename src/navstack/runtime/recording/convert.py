@@ -14,11 +14,13 @@ from functools import lru_cache
 from types import SimpleNamespace
 from typing import Any
 
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from navstack.core import msgs as m
+from navstack.runtime.recording import convert_driver as d
 from navstack.runtime.recording import convert_geometry as g
+from navstack.runtime.recording import convert_nav2 as n
 from navstack.runtime.recording import convert_sensor as s
 from navstack.runtime.recording.cdr import FAST_ENCODERS
 from navstack.runtime.recording.errors import UnsupportedTypeError
@@ -66,8 +68,21 @@ _TABLE: tuple[Conversion, ...] = (
                g.to_twist_with_covariance_stamped, g.from_twist_with_covariance_stamped),
     Conversion("geometry_msgs/msg/Polygon", m.Polygon, g.to_polygon, g.from_polygon),
     Conversion("sensor_msgs/msg/LaserScan", m.LaserScan, s.to_laser_scan, s.from_laser_scan),
+    # written with all its fields; a ROS PointCloud2 reads back as the xyz PointCloud
+    # below (the later entry of a ROS type is the one reading uses)
+    Conversion("sensor_msgs/msg/PointCloud2", m.PointCloud2, d.to_point_cloud2,
+               s.from_point_cloud),
     Conversion("sensor_msgs/msg/PointCloud2", m.PointCloud, s.to_point_cloud,
                s.from_point_cloud),
+    Conversion("sensor_msgs/msg/PointField", m.PointField, d.to_point_field,
+               d.from_point_field),
+    Conversion("sensor_msgs/msg/JointState", m.JointState, d.to_joint_state,
+               d.from_joint_state),
+    Conversion("diagnostic_msgs/msg/KeyValue", m.KeyValue, d.to_key_value, d.from_key_value),
+    Conversion("diagnostic_msgs/msg/DiagnosticStatus", m.DiagnosticStatus,
+               d.to_diagnostic_status, d.from_diagnostic_status),
+    Conversion("diagnostic_msgs/msg/DiagnosticArray", m.DiagnosticArray,
+               d.to_diagnostic_array, d.from_diagnostic_array),
     Conversion("sensor_msgs/msg/Imu", m.Imu, s.to_imu, s.from_imu),
     Conversion("sensor_msgs/msg/MagneticField", m.MagneticField, s.to_magnetic_field,
                s.from_magnetic_field),
@@ -82,6 +97,10 @@ _TABLE: tuple[Conversion, ...] = (
                s.from_marker_array),
     Conversion("action_msgs/msg/GoalStatusArray", GoalStatusArray, s.to_goal_status_array,
                s.from_goal_status_array),
+    Conversion("nav2_msgs/msg/CostmapFilterInfo", m.CostmapFilterInfo,
+               n.to_costmap_filter_info, n.from_costmap_filter_info),
+    Conversion("nav2_msgs/msg/SpeedLimit", m.SpeedLimit, n.to_speed_limit,
+               n.from_speed_limit),
 )
 
 #: ROS 1 (and old) spellings read as the ROS 2 type of the same layout
@@ -98,8 +117,12 @@ def supported_ros_types() -> list[str]:
 
 @lru_cache(maxsize=1)
 def humble_typestore() -> Typestore:
-    """The ROS 2 Humble typestore (built once; rosbags typestores are read-only here)."""
-    return get_typestore(Stores.ROS2_HUMBLE)
+    """The ROS 2 Humble typestore plus the nav2_msgs types the bus carries (built once;
+    read-only afterwards)."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name, text in n.NAV2_MSG_DEFINITIONS.items():
+        store.register(get_types_from_msg(text, name))
+    return store
 
 
 def _short_names(store: Typestore) -> SimpleNamespace:

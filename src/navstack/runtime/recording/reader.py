@@ -73,6 +73,25 @@ def resolve_bag_path(path: str | Path) -> Path:
     return p
 
 
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def truncated_mcap(source: Path) -> Path | None:
+    """The MCAP file under ``source`` if it starts like one but does not end like one."""
+    files = sorted(source.glob("*.mcap")) if source.is_dir() else [source]
+    for f in files:
+        if f.suffix != ".mcap" or not f.is_file():
+            continue
+        with f.open("rb") as fh:
+            head = fh.read(len(_MCAP_MAGIC))
+            size = fh.seek(0, 2)
+            fh.seek(max(size - len(_MCAP_MAGIC), 0))
+            tail = fh.read()
+        if head == _MCAP_MAGIC and (size < 2 * len(_MCAP_MAGIC) or tail != _MCAP_MAGIC):
+            return f
+    return None
+
+
 def _latched(conn: Connection) -> bool:
     ext = conn.ext
     if isinstance(ext, ConnectionExtRosbag1):
@@ -95,6 +114,13 @@ class BagReader:
             reader = AnyReader([self._source], default_typestore=humble_typestore())
             reader.open()
         except AnyReaderError as exc:
+            cut = truncated_mcap(self._source)
+            if cut is not None:
+                raise BagFormatError(
+                    f"{self.path}: the MCAP file {cut.name} is truncated (no summary and "
+                    f"footer: the recording was cut off, e.g. killed or out of disk); recover "
+                    f"its readable messages with `navstack bag recover {self.path} --out "
+                    f"FIXED`") from None
             raise BagFormatError(f"{self.path}: not a readable bag ({exc})") from None
         except (OSError, ValueError, KeyError) as exc:
             raise BagFormatError(f"{self.path}: cannot open the bag ({exc})") from None

@@ -41,10 +41,11 @@ from navstack.runtime.recording.goal_status import (
 from navstack.runtime.recording.writer import BagSummary, BagWriter, Route
 
 #: ``ros2 bag record`` of a navigation run: sensors, TF, localization, plans, commands,
-#: goals, the map, and the simulator's ground truth when there is one.
+#: goals, the map, and the simulator's ground truth when there is one (true pose, the
+#: body's footprint and the walkers, so ``navstack report`` can score clearance).
 DEFAULT_TOPICS: tuple[str, ...] = (
     "/scan", "/tf", "/tf_static", "/odom", "/plan", "/local_plan", "/cmd_vel", "/amcl_pose",
-    "/map", "/goal_pose", "/ground_truth")
+    "/map", "/goal_pose", "/ground_truth", "/sim/footprint", "/sim/obstacles")
 NAVIGATE_TO_POSE = "/navigate_to_pose"
 GOAL_POSE_TOPIC = "/goal_pose"
 GOAL_STATUS_TOPIC = NAVIGATE_TO_POSE + "/_action/status"

@@ -6,13 +6,26 @@
 * :mod:`~navstack.control.mppi.critics.collision` — Cost, Obstacles;
 * :mod:`~navstack.control.mppi.critics.path` — PathAlign, PathFollow, PathAngle.
 
-:func:`load_critics` builds the ``critics`` list of a controller's parameters, in order
-(Nav2 ``CriticManager::loadCritics``); disabled critics are kept but score nothing.
+Each critic registers itself in :data:`CRITICS` with
+:func:`~navstack.control.mppi.critics.base.register_critic`, its parameter model next to
+it; importing this package registers the built-in ones.  :func:`load_critics` builds
+the ``critics`` list of a controller's parameters, in order (Nav2
+``CriticManager::loadCritics``); disabled critics are kept but score nothing.
 """
 
 from __future__ import annotations
 
-from navstack.control.mppi.critics.base import Critic, CriticData, RobotShape
+from typing import TYPE_CHECKING
+
+from navstack.control.mppi.critics.base import (
+    CRITICS,
+    Critic,
+    CriticData,
+    CriticParams,
+    RobotShape,
+    WeightedCriticParams,
+    register_critic,
+)
 from navstack.control.mppi.critics.collision import CostCritic, ObstaclesCritic
 from navstack.control.mppi.critics.goal import GoalAngleCritic, GoalCritic
 from navstack.control.mppi.critics.path import (
@@ -27,20 +40,14 @@ from navstack.control.mppi.critics.velocity import (
     VelocityDeadbandCritic,
 )
 from navstack.control.mppi.models import MotionModel
-from navstack.control.mppi.params import MPPIParams
 
-CRITICS: dict[str, type[Critic]] = {
-    cls.name: cls for cls in (
-        ConstraintCritic, CostCritic, ObstaclesCritic, GoalCritic, GoalAngleCritic,
-        PathAlignCritic, PathFollowCritic, PathAngleCritic, PreferForwardCritic,
-        TwirlingCritic, VelocityDeadbandCritic)
-}
-"""Nav2 critic class name -> navstack critic."""
+if TYPE_CHECKING:
+    from navstack.control.mppi.params import MPPIParams
 
 
 def load_critics(params: MPPIParams, model: MotionModel, shape: RobotShape) -> list[Critic]:
     """The critics named in ``params.critics``, configured from their sections."""
-    return [CRITICS[name](params.critic(name), params, model, shape)
+    return [CRITICS.get(name)(params.critic(name), params, model, shape)
             for name in params.critics]
 
 
@@ -50,6 +57,7 @@ __all__ = [
     "CostCritic",
     "Critic",
     "CriticData",
+    "CriticParams",
     "GoalAngleCritic",
     "GoalCritic",
     "ObstaclesCritic",
@@ -60,5 +68,7 @@ __all__ = [
     "RobotShape",
     "TwirlingCritic",
     "VelocityDeadbandCritic",
+    "WeightedCriticParams",
     "load_critics",
+    "register_critic",
 ]

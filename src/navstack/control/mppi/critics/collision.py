@@ -38,13 +38,15 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
-from navstack.control.mppi.critic_params import (
-    CostCriticParams,
+from navstack.control.mppi.critics.base import (
+    Critic,
+    CriticData,
     CriticParams,
-    ObstaclesCriticParams,
+    RobotShape,
+    register_critic,
 )
-from navstack.control.mppi.critics.base import Critic, CriticData, RobotShape
 from navstack.control.mppi.models import MotionModel
 from navstack.core.errors import ConfigError
 
@@ -251,6 +253,16 @@ def obstacle_distance_luts(inflation_radius: float, scaling: float, inscribed: f
     return margin_lut, repulsion_lut
 
 
+class _CollisionCriticParams(CriticParams):
+    """Keys shared by the two costmap critics."""
+
+    consider_footprint: bool = False
+    near_goal_distance: float = Field(0.5, ge=0.0)
+    inflation_layer_name: str = ""
+    inflation_radius: float = Field(0.55, ge=0.0)
+    cost_scaling_factor: float = Field(10.0, ge=0.0)
+
+
 class _CollisionCritic(Critic):
     params: CostCriticParams | ObstaclesCriticParams
     #: CostCritic skips the potential-field shortcut when inflation < circumscribed radius
@@ -280,10 +292,29 @@ class _CollisionCritic(Critic):
                               p.cost_scaling_factor)
 
 
+class CostCriticParams(_CollisionCriticParams):
+    """``CostCritic``: sums costmap cost along every ``trajectory_point_step``-th pose.
+
+    Poses at or above ``near_collision_cost`` add ``critical_cost``; a collision (LETHAL,
+    INSCRIBED for a point robot, unknown unless the costmap tracks unknown space) replaces
+    the sum with ``collision_cost``.  The term is ``(sum * cost_weight / 254 / n) **
+    cost_power`` with ``n`` the number of evaluated poses.  Within ``near_goal_distance``
+    of the goal only critical and collision costs count.
+    """
+
+    cost_power: int = Field(1, ge=1)
+    cost_weight: float = Field(3.81, ge=0.0)
+    critical_cost: float = Field(300.0, ge=0.0)
+    near_collision_cost: int = Field(253, ge=1, le=255)
+    collision_cost: float = Field(1000000.0, ge=0.0)
+    trajectory_point_step: int = Field(2, ge=1)
+
+
+@register_critic("CostCritic")
 class CostCritic(_CollisionCritic):
     """Stay in low-cost space; never collide."""
 
-    name: ClassVar[str] = "CostCritic"
+    params_model = CostCriticParams
     cap_to_radius: ClassVar[bool] = True
     params: CostCriticParams
 
@@ -304,10 +335,29 @@ class CostCritic(_CollisionCritic):
             data.fail, data.failed_by = True, self.name
 
 
+class ObstaclesCriticParams(_CollisionCriticParams):
+    """``ObstaclesCritic``: distance-to-obstacle terms recovered from inflated cost.
+
+    ``distance = (k * r_inscribed - ln(cost) + ln(253)) / k`` (minus ``r_inscribed`` for
+    a point check), ``k = cost_scaling_factor``.  Poses closer than
+    ``collision_margin_distance`` add ``margin - distance`` (scaled by
+    ``critical_weight``); every inflated pose adds ``inflation_radius - distance``
+    (scaled by ``repulsion_weight``, normalised by the batch minimum and the horizon).
+    A colliding trajectory scores ``critical_weight * collision_cost``.
+    """
+
+    cost_power: int = Field(1, ge=1)
+    repulsion_weight: float = Field(1.5, ge=0.0)
+    critical_weight: float = Field(20.0, ge=0.0)
+    collision_cost: float = Field(100000.0, ge=0.0)
+    collision_margin_distance: float = Field(0.10, ge=0.0)
+
+
+@register_critic("ObstaclesCritic")
 class ObstaclesCritic(_CollisionCritic):
     """Keep a margin from obstacles, prefer open space; never collide."""
 
-    name: ClassVar[str] = "ObstaclesCritic"
+    params_model = ObstaclesCriticParams
     cap_to_radius: ClassVar[bool] = False
     params: ObstaclesCriticParams
 

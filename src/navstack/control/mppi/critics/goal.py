@@ -15,14 +15,18 @@ Each term is ``(raw * cost_weight) ** cost_power``.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
-from navstack.control.mppi.critic_params import GoalAngleCriticParams, GoalCriticParams
-from navstack.control.mppi.critics.base import Critic, CriticData
+from navstack.control.mppi.critics.base import (
+    Critic,
+    CriticData,
+    WeightedCriticParams,
+    register_critic,
+)
 
 FloatArray = NDArray[np.float64]
 Float32Array = NDArray[np.float32]
@@ -64,10 +68,19 @@ def goal_angle_critic(traj: Float32Array, goal_yaw: float, symmetric: bool, scal
         costs[i] += v if power == 1.0 else v ** power
 
 
+class GoalCriticParams(WeightedCriticParams):
+    """``GoalCritic``: mean distance of the trajectory poses to the goal, active once the
+    robot is within ``threshold_to_consider`` of it."""
+
+    cost_weight: float = Field(5.0, ge=0.0)
+    threshold_to_consider: float = Field(1.4, ge=0.0)
+
+
+@register_critic("GoalCritic")
 class GoalCritic(Critic):
     """Pull the trajectories onto the goal position near the goal."""
 
-    name: ClassVar[str] = "GoalCritic"
+    params_model = GoalCriticParams
     params: GoalCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -79,10 +92,20 @@ class GoalCritic(Critic):
                              data.costs)
 
 
+class GoalAngleCriticParams(WeightedCriticParams):
+    """``GoalAngleCritic``: mean |yaw - goal yaw| over the trajectory, active within
+    ``threshold_to_consider``; ``symmetric_yaw_tolerance`` also accepts goal yaw + pi."""
+
+    cost_weight: float = Field(3.0, ge=0.0)
+    threshold_to_consider: float = Field(0.5, ge=0.0)
+    symmetric_yaw_tolerance: bool = False
+
+
+@register_critic("GoalAngleCritic")
 class GoalAngleCritic(Critic):
     """Turn the trajectories to the goal heading near the goal."""
 
-    name: ClassVar[str] = "GoalAngleCritic"
+    params_model = GoalAngleCriticParams
     params: GoalAngleCriticParams
 
     def score(self, data: CriticData) -> None:

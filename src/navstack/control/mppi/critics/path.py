@@ -26,18 +26,19 @@ Each term is ``(raw * cost_weight) ** cost_power``.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field, model_validator
 
-from navstack.control.mppi.critic_params import (
-    PathAlignCriticParams,
-    PathAngleCriticParams,
-    PathFollowCriticParams,
+from navstack.control.mppi.critics.base import (
+    Critic,
+    CriticData,
+    WeightedCriticParams,
+    register_critic,
 )
-from navstack.control.mppi.critics.base import Critic, CriticData
 
 FloatArray = NDArray[np.float64]
 Float32Array = NDArray[np.float32]
@@ -186,10 +187,25 @@ def _furthest(data: CriticData) -> int:
     return data.furthest_reached_path_point
 
 
+class PathAlignCriticParams(WeightedCriticParams):
+    """``PathAlignCritic``: mean distance of every ``trajectory_point_step``-th pose to
+    the path point at the same arc length; skipped near the goal, before trajectories
+    reach ``offset_from_furthest`` path points, or when more than
+    ``max_path_occupancy_ratio`` of the path is blocked."""
+
+    cost_weight: float = Field(10.0, ge=0.0)
+    max_path_occupancy_ratio: float = Field(0.07, ge=0.0, le=1.0)
+    offset_from_furthest: int = Field(20, ge=0)
+    trajectory_point_step: int = Field(4, ge=1)
+    threshold_to_consider: float = Field(0.5, ge=0.0)
+    use_path_orientations: bool = False
+
+
+@register_critic("PathAlignCritic")
 class PathAlignCritic(Critic):
     """Keep the trajectories on the path (exact tracking when it is free)."""
 
-    name: ClassVar[str] = "PathAlignCritic"
+    params_model = PathAlignCriticParams
     params: PathAlignCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -202,10 +218,20 @@ class PathAlignCritic(Critic):
                           float(p.cost_power), data.costs)
 
 
+class PathFollowCriticParams(WeightedCriticParams):
+    """``PathFollowCritic``: distance of the trajectory end to the first valid path
+    point ``offset_from_furthest`` points beyond the furthest one reached."""
+
+    cost_weight: float = Field(5.0, ge=0.0)
+    offset_from_furthest: int = Field(6, ge=0)
+    threshold_to_consider: float = Field(1.4, ge=0.0)
+
+
+@register_critic("PathFollowCritic")
 class PathFollowCritic(Critic):
     """Make progress along the path."""
 
-    name: ClassVar[str] = "PathFollowCritic"
+    params_model = PathFollowCriticParams
     params: PathFollowCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -221,10 +247,36 @@ class PathFollowCritic(Critic):
                            data.costs)
 
 
+class PathAngleCriticParams(WeightedCriticParams):
+    """``PathAngleCritic``: heading error of the trajectory end towards the path point
+    ``offset_from_furthest`` beyond the furthest reached, active when the robot's own
+    heading is off by more than ``max_angle_to_furthest``.
+
+    ``mode``: 0 forward preference, 1 no directional preference, 2 consider the path's
+    orientations (feasible planners).  ``forward_preference`` (Nav2 Humble) maps to
+    mode 0 (true) or 1 (false) when given.
+    """
+
+    cost_weight: float = Field(2.2, ge=0.0)
+    offset_from_furthest: int = Field(4, ge=0)
+    threshold_to_consider: float = Field(0.5, ge=0.0)
+    max_angle_to_furthest: float = Field(0.785398, ge=0.0)
+    mode: int = Field(0, ge=0, le=2)
+    forward_preference: bool | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _humble_forward_preference(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("forward_preference"), bool):
+            data = {**data, "mode": 0 if data["forward_preference"] else 1}
+        return data
+
+
+@register_critic("PathAngleCritic")
 class PathAngleCritic(Critic):
     """Turn towards the path when the robot points away from it."""
 
-    name: ClassVar[str] = "PathAngleCritic"
+    params_model = PathAngleCriticParams
     params: PathAngleCriticParams
 
     @property

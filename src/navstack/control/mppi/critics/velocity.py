@@ -19,20 +19,17 @@ Every term is ``(raw * cost_weight) ** cost_power``.
 
 from __future__ import annotations
 
-from typing import ClassVar
-
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
-from navstack.control.mppi.critic_params import (
-    ConstraintCriticParams,
-    PreferForwardCriticParams,
-    TwirlingCriticParams,
-    VelocityDeadbandCriticParams,
+from navstack.control.mppi.critics.base import (
+    Critic,
+    CriticData,
     WeightedCriticParams,
+    register_critic,
 )
-from navstack.control.mppi.critics.base import Critic, CriticData
 from navstack.control.mppi.models import KIND_ACKERMANN, KIND_OMNI
 
 FloatArray = NDArray[np.float64]
@@ -129,10 +126,19 @@ class _VelocityCritic(Critic):
         return self.params.enabled
 
 
+class ConstraintCriticParams(WeightedCriticParams):
+    """``ConstraintCritic``: penalises sampled velocities outside ``vx_min..vx_max``
+    (and ``|vy| > vy_max`` for Omni, turning radius below ``min_turning_r`` for
+    Ackermann), integrated over time (``sum(violation) * model_dt``)."""
+
+    cost_weight: float = Field(4.0, ge=0.0)
+
+
+@register_critic("ConstraintCritic")
 class ConstraintCritic(_VelocityCritic):
     """Penalise sampled velocities outside the kinematic limits."""
 
-    name: ClassVar[str] = "ConstraintCritic"
+    params_model = ConstraintCriticParams
     params: ConstraintCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -144,10 +150,19 @@ class ConstraintCritic(_VelocityCritic):
                           float(p.cost_power), data.costs)
 
 
+class PreferForwardCriticParams(WeightedCriticParams):
+    """``PreferForwardCritic``: integrated reverse speed ``sum(max(-vx, 0)) * dt``,
+    active farther than ``threshold_to_consider`` from the goal."""
+
+    cost_weight: float = Field(5.0, ge=0.0)
+    threshold_to_consider: float = Field(0.5, ge=0.0)
+
+
+@register_critic("PreferForwardCritic")
 class PreferForwardCritic(_VelocityCritic):
     """Penalise reversing away from the goal."""
 
-    name: ClassVar[str] = "PreferForwardCritic"
+    params_model = PreferForwardCriticParams
     params: PreferForwardCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -158,10 +173,18 @@ class PreferForwardCritic(_VelocityCritic):
                               float(p.cost_power), data.costs)
 
 
+class TwirlingCriticParams(WeightedCriticParams):
+    """``TwirlingCritic``: mean |wz| over the trajectory, off within the goal checker's
+    xy tolerance (navstack: the controller's ``xy_goal_tolerance``)."""
+
+    cost_weight: float = Field(10.0, ge=0.0)
+
+
+@register_critic("TwirlingCritic")
 class TwirlingCritic(_VelocityCritic):
     """Penalise rotation (holonomic robots that could spin while translating)."""
 
-    name: ClassVar[str] = "TwirlingCritic"
+    params_model = TwirlingCriticParams
     params: TwirlingCriticParams
 
     def score(self, data: CriticData) -> None:
@@ -173,10 +196,19 @@ class TwirlingCritic(_VelocityCritic):
                         float(p.cost_power), data.costs)
 
 
+class VelocityDeadbandCriticParams(WeightedCriticParams):
+    """``VelocityDeadbandCritic``: integrated shortfall below ``deadband_velocities``
+    ``[vx, vy, wz]`` (robots that cannot move slower than a threshold)."""
+
+    cost_weight: float = Field(35.0, ge=0.0)
+    deadband_velocities: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@register_critic("VelocityDeadbandCritic")
 class VelocityDeadbandCritic(_VelocityCritic):
     """Penalise speeds inside the drive's deadband."""
 
-    name: ClassVar[str] = "VelocityDeadbandCritic"
+    params_model = VelocityDeadbandCriticParams
     params: VelocityDeadbandCriticParams
 
     def score(self, data: CriticData) -> None:

@@ -298,6 +298,8 @@ function updateEstopUi() {
   $("estop").textContent = latched ? "E-STOPPED" : "E-STOP";
   $("release").disabled = !(latched && S.authorized);
   $("estop-badge").classList.toggle("hidden", !latched);
+  const holder = latched ? (S.state.estop.holder || "lock topic") : "";
+  $("estop-badge").textContent = latched ? `E-STOP LATCHED (${holder})` : "E-STOP LATCHED";
 }
 
 // --- input ----------------------------------------------------------------------------------------------------
