@@ -270,27 +270,31 @@ def _register_lone_scans(mapper: SlamMapper, log: ScanLog, trajectory: FloatArra
                          node_index: NDArray[np.int64]) -> None:
     """Offline smoothing of the scans that had no odometry (never nodes): each is
     matched against the final map around the pose interpolated (by time) between the
-    nodes before and after it -- the future an online run lacks."""
+    nodes before and after it -- the future an online run lacks -- and placed at that
+    interpolation when nothing fits there."""
     lone = np.flatnonzero(np.isnan(log.odometry).any(axis=1))
     if lone.size == 0 or not mapper.nodes:
         return
     poses = mapper.poses()
-    stamps = np.array([n.stamp for n in mapper.nodes])
+    count = len(mapper.nodes)
+    # the scan that made each node (node_index steps up there)
+    made = np.flatnonzero(np.diff(np.r_[-1, node_index]) > 0)
+    timed = log_duration(log.stamps) is not None  # else interpolate by scan count
     for k in lone:
         before = int(node_index[k])
-        if before < 0 or stamps.size < 2:
+        if before < 0 or before + 1 >= count or made.size != count:
             continue
-        after = before + 1 if before + 1 < stamps.size and stamps[before] != log.stamps[k] \
-            else None
-        if after is None:
-            continue
-        span = stamps[after] - stamps[before]
-        f = (log.stamps[k] - stamps[before]) / span if span > 0 else 0.5
+        after = before + 1
+        a, b = int(made[before]), int(made[after])
+        span = log.stamps[b] - log.stamps[a]
+        f = ((log.stamps[k] - log.stamps[a]) / span if timed and span > 0
+             else (k - a) / max(b - a, 1))
         f = min(max(f, 0.0), 1.0)
         guess = se2_compose(poses[before], se2_between(poses[before], poses[after]) * f)
         pose = mapper.register(log.ranges[int(k)], guess)
-        if pose is not None:
-            trajectory[k] = pose
+        # no local fit: the interpolation between the neighbours (1-2 scan spacings
+        # apart) is closer than the online placement, which had only the past
+        trajectory[k] = guess if pose is None else pose
 
 
 def _silent(stage: str, done: int, total: int) -> None:

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -61,6 +61,9 @@ from navstack.mapping.scan_matcher import (
 from navstack.mapping.slam_params import SlamParams
 
 FloatArray = NDArray[np.float64]
+#: a link's angular search covers this many standard deviations of the odometry's
+#: rotation error over the step (at least ``coarse_search_angle_offset``)
+LINK_WINDOW_SIGMAS = 3.0
 
 __all__ = ["LaserGeometry", "ScanNode", "SlamMapper", "SlamStats"]
 
@@ -491,6 +494,18 @@ class SlamMapper:
         self._local_cache = (key, value)
         return value
 
+    def _link_window(self, step: FloatArray) -> SearchWindow | None:
+        """The link's search window for an odometry ``step`` since the last node: the
+        usual one (``coarse_search_angle_offset``), or wider in angle when the odometry's
+        own angular uncertainty over this step (:class:`OdometryNoise`, learned from the
+        matches) reaches beyond it -- a turn with poor odometry, or a turn spread over
+        two scans when one scan between them lost its odometry.  ``None``: the usual."""
+        sigma = math.sqrt(float(self._odometry_noise.covariance(step)[2, 2]))
+        half = LINK_WINDOW_SIGMAS * sigma
+        if half <= self._window.coarse_angle_offset:
+            return None
+        return replace(self._window, coarse_angle_offset=min(math.pi, half))
+
     def match_unit(self) -> FloatArray:
         """Standard deviations of a perfectly constrained match (x, y, theta): one
         search cell and two fine angle steps."""
@@ -539,9 +554,12 @@ class SlamMapper:
                                          p.scan_buffer_maximum_scan_distance)
                      if restarting else list(self._running))
         match: MatchResult | None = None
+        window = None if missing else self._link_window(
+            se2_between(self._poses[prev_id], guess))
         if p.use_scan_matching and reference:
             ref, nrm, msk, grid = self._local_map(reference)
-            match = self.match_points(ref, nrm, msk, node.points, guess, grid=grid)
+            match = self.match_points(ref, nrm, msk, node.points, guess, window=window,
+                                      grid=grid)
         failed = match is None or match.response < p.link_match_minimum_response_fine
         typical = self.typical_response()
         if missing and match is not None and match.response >= 0.9 * typical:
