@@ -128,7 +128,7 @@ class SlamParams(Params):
     loop_match_submap_size: int = Field(10, ge=1)
     loop_match_corridor_closures: bool = True
     loop_match_confirmation_nodes: int = Field(5, ge=0)
-    loop_search_node_interval: int = Field(2, ge=1)
+    loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
     loop_closure_batch_distance: float = Field(0.5, gt=0.0)
     # navstack: odometry edges where a match is degenerate and their initial noise
