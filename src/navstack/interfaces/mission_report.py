@@ -68,7 +68,7 @@ def map_poses_figures(run: MissionRun, report: dict[str, Any]) -> dict[str, Any]
         from navstack.core.msgs import Pose2D
 
         goal = Pose2D(*reached[0]["pose"])
-        slam_map = run.stack.slam.occupancy_grid() if run.stack.slam is not None else None
+        slam_map = run.stack.slam.saved_map() if run.stack.slam is not None else None
         slam_params = run.setup.section("slam_toolbox")
         out["reload"] = check_reload(run.stack.world.name if run.stack.world.source is None
                                      else str(run.stack.world.source),

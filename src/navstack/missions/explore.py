@@ -288,11 +288,13 @@ class Escape(MissionBehaviour):
         self.handle: GoalHandle[Any] | None = None
         self.tries = 0
         self.moved_at = -math.inf
+        self.flip = False  # the last move was refused: try the other direction
 
     def initialise(self) -> None:
         self.handle = None
         self.tries = 0
         self.moved_at = -math.inf
+        self.flip = False
 
     def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D) -> tuple[float, float]:
         """Distance [m] and bearing (robot frame) of the nearest occupied map cell."""
@@ -325,6 +327,7 @@ class Escape(MissionBehaviour):
             if h.result is not None and h.result.status is not GoalStatus.SUCCEEDED:
                 ctx.log(f"{self.name}: {h.action} ended {h.result.status.value}: "
                         f"{h.result.error_msg}")
+                self.flip = not self.flip  # that way is blocked: the other way next
         grid = ctx.latest(self.map_topic, OccupancyGrid, LATCHED)
         pose = ctx.robot_pose()
         if grid is None or pose is None:
@@ -340,7 +343,7 @@ class Escape(MissionBehaviour):
         self.tries += 1
         along = abs(math.cos(bearing))
         distance = max(0.1, (self.radius - dist) / max(along, 0.5) + self.margin)
-        if abs(bearing) < math.pi / 2:
+        if (abs(bearing) < math.pi / 2) != self.flip:
             goal: Any = m.BackUpGoal(distance, 0.1, 10.0)
             client: Any = ctx.backup
             how = "backing up"
