@@ -66,8 +66,10 @@ def test_bad_executor_options_are_named() -> None:
 
 def test_unreachable_ray_address_is_a_sweep_error(jobs: list[Job]) -> None:
     pytest.importorskip("ray")
-    with pytest.raises(SweepError, match=r"127\.0\.0\.1:1"):
+    with pytest.raises(SweepError, match=r"no Ray cluster answers at 127\.0\.0\.1:1 "):
         run_jobs(jobs[:1], "ray", address="127.0.0.1:1")
+    with pytest.raises(SweepError, match=r"at ray://127\.0\.0\.1:1 "):
+        run_jobs(jobs[:1], "ray", address="ray://127.0.0.1:1")
 
 
 def test_cli_sweep_writes_report(tmp_path: Path) -> None:

@@ -20,6 +20,7 @@ its inputs, :meth:`Outcome.result_key` is identical across executors (tested).
 from __future__ import annotations
 
 import os
+import socket
 import time
 from collections.abc import Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -115,9 +116,26 @@ def _import_ray() -> Any:
     return ray
 
 
+def check_reachable(address: str, timeout_s: float = 5.0) -> None:
+    """Refuse a ``host:port`` / ``ray://host:port`` Ray address nothing listens on
+    (Ray itself retries for minutes); ``auto`` and addresses without a port pass."""
+    host_port = address.split("://", 1)[-1]
+    host, sep, port = host_port.rpartition(":")
+    if address == "auto" or not sep or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s).close()
+    except OSError as exc:
+        raise SweepError(f"no Ray cluster answers at {address} ({exc.strerror or exc}); "
+                         "start one with `ray start --head` or leave out --address "
+                         "for a local cluster") from None
+
+
 def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
              progress: Progress) -> list[Outcome]:
     ray = _import_ray()
+    if address is not None:
+        check_reachable(address)
     started = False
     if not ray.is_initialized():
         env = {"env_vars": {k: v for k, v in os.environ.items()
