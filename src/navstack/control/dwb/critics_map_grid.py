@@ -31,7 +31,12 @@ from navstack.control.dwb.critic_base import (
     register_critic,
     reject_scores,
 )
-from navstack.control.dwb.grid import Wavefront, adjust_plan_resolution, world_to_cells
+from navstack.control.dwb.grid import (
+    Wavefront,
+    adjust_plan_resolution,
+    plan_run_end,
+    world_to_cells,
+)
 from navstack.control.dwb.params import DWBParams
 from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.msgs import Pose2D
@@ -141,9 +146,21 @@ class MapGridCritic(TrajectoryCritic[G]):
                costmap: Costmap2D) -> tuple[IntArray, IntArray, NDArray[np.bool_]]:
         last_only = self._last_only()
         if self.forward_point or last_only:
-            xs, ys = self._points(batch, last_only)
-            return world_to_cells(costmap, xs, ys)
+            # cached per batch (and carried into sub-batches): PathAlign and GoalAlign
+            # score the same nose points, in prepare and in score
+            key = f"cells:{type(self)._points.__qualname__}:{last_only}:{self._point_key()}"
+            cached = batch.cache.get(key)
+            if cached is None:
+                xs, ys = self._points(batch, last_only)
+                cached = world_to_cells(costmap, xs, ys)
+                batch.cache[key] = cached
+            mx, my, inside = cached
+            return mx, my, inside
         return batch_cells(batch, costmap)
+
+    def _point_key(self) -> float:
+        """What besides the batch decides :meth:`_points` (the nose distance)."""
+        return 0.0
 
     def _set_values(self, ctx: CriticContext, seed_x: IntArray, seed_y: IntArray) -> None:
         """Run the wave from the seeds, up to the cells the cycle's trajectories touch."""
@@ -259,9 +276,17 @@ class GoalDistCritic(MapGridCritic[MapGridParams]):
     default_scale = 24.0
 
     def _prepare_goal(self, ctx: CriticContext, plan: FloatArray) -> bool:
-        run_x, run_y = plan_run_cells(plan, ctx.costmap,
-                                      ctx.cache if plan is ctx.plan else None)
-        self._set_values(ctx, run_x[-1:], run_y[-1:])
+        if plan is ctx.plan:
+            run_x, run_y = plan_run_cells(plan, ctx.costmap, ctx.cache)
+            run_x, run_y = run_x[-1:], run_y[-1:]
+        else:  # only the run's last cell is needed: no dense plan is built
+            cm = ctx.costmap
+            found, ex, ey = plan_run_end(np.ascontiguousarray(plan, dtype=np.float64),
+                                         cm.resolution, cm.origin_x, cm.origin_y, cm.data,
+                                         NO_INFORMATION)
+            run_x = np.array([ex] if found else [], dtype=np.int64)
+            run_y = np.array([ey] if found else [], dtype=np.int64)
+        self._set_values(ctx, run_x, run_y)
         return len(run_x) > 0
 
     def prepare(self, ctx: CriticContext) -> bool:
@@ -281,6 +306,9 @@ class _AlignMixin:
         d = self.params.forward_point_distance
         return (poses[..., 0] + d * np.cos(poses[..., 2]),
                 poses[..., 1] + d * np.sin(poses[..., 2]))
+
+    def _point_key(self) -> float:
+        return float(self.params.forward_point_distance)
 
     def _near_goal(self, ctx: CriticContext) -> bool:
         d = self.params.forward_point_distance

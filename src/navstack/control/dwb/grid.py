@@ -115,6 +115,51 @@ def _densify(plan: FloatArray, steps: IntArray, out: FloatArray) -> None:
         k += 1
 
 
+@numba.njit(cache=True)
+def plan_run_end(plan: FloatArray, resolution: float, origin_x: float, origin_y: float,
+                 data: NDArray[np.uint8], unknown: int) -> tuple[bool, int, int]:
+    """``(found, mx, my)``: the last cell of the first run of the densified plan on
+    known grid cells (``found`` False if no pose is on one): the last entry of
+    ``plan_run_cells`` without building the dense plan (same points, same arithmetic
+    as :func:`adjust_plan_resolution` and :func:`world_to_cells`)."""
+    size_y, size_x = data.shape
+    started = False
+    last_x, last_y = -1, -1
+    m = plan.shape[0]
+    if m == 0:
+        return (False, -1, -1)
+    for i in range(m):
+        if i == 0:
+            n = 1
+        else:
+            dx = plan[i, 0] - plan[i - 1, 0]
+            dy = plan[i, 1] - plan[i - 1, 1]
+            dist = np.hypot(dx, dy)
+            n = int(np.ceil((dist - resolution) / resolution) + 1.0) \
+                if dist ** 2 > resolution ** 2 else 1
+        for j in range(1, n + 1):
+            if i == 0:
+                px, py = plan[0, 0], plan[0, 1]
+            elif j == n:
+                px, py = plan[i, 0], plan[i, 1]
+            else:
+                frac = j / n
+                px = plan[i - 1, 0] + frac * (plan[i, 0] - plan[i - 1, 0])
+                py = plan[i - 1, 1] + frac * (plan[i, 1] - plan[i - 1, 1])
+            fx = np.floor((px - origin_x) / resolution)
+            fy = np.floor((py - origin_y) / resolution)
+            ok = fx >= 0 and fx < size_x and fy >= 0 and fy < size_y
+            if ok:
+                cx, cy = int(fx), int(fy)
+                ok = data[cy, cx] != unknown
+            if ok:
+                started = True
+                last_x, last_y = cx, cy
+            elif started:
+                return (True, last_x, last_y)
+    return (started, last_x, last_y)
+
+
 _DX = np.array([-1, 0, 1, 0], dtype=np.int64)
 _DY = np.array([0, -1, 0, 1], dtype=np.int64)
 
