@@ -147,9 +147,12 @@ def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
             else:
                 ray.init(address=address, log_to_driver=False, configure_logging=False,
                          runtime_env=env)
-        except (ConnectionError, ValueError, RuntimeError) as exc:
-            where = f"the Ray cluster at {address}" if address else "a local Ray cluster"
-            raise SweepError(f"could not start or reach {where}: {exc}") from None
+        except Exception as exc:  # Ray raises plain Exception on a start-up timeout
+            where = (f"the Ray cluster at {address}" if address
+                     else f"a local Ray cluster of {workers} CPUs")
+            raise SweepError(f"could not start or reach {where}: {exc} (on an overloaded "
+                             "machine Ray's start-up can time out: retry, or use "
+                             "--executor local)") from None
         started = True
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_run_job)
