@@ -131,6 +131,20 @@ def check_reachable(address: str, timeout_s: float = 5.0) -> None:
                          "for a local cluster") from None
 
 
+def _start_local_ray(ray: Any, workers: int, env: dict[str, Any], attempts: int = 2) -> None:
+    """``ray.init`` of a local cluster; Ray gives its raylet a fixed 30 s to register,
+    which a heavily loaded machine can miss, so a failed start is retried once."""
+    for attempt in range(attempts):
+        try:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+                     configure_logging=False, runtime_env=env)
+            return
+        except Exception:
+            ray.shutdown()
+            if attempt == attempts - 1:
+                raise
+
+
 def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
              progress: Progress) -> list[Outcome]:
     ray = _import_ray()
@@ -142,8 +156,7 @@ def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
                             if k in ("NUMBA_CACHE_DIR", "MPLBACKEND", "NAVSTACK_DATA")}}
         try:
             if address is None:
-                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                         configure_logging=False, runtime_env=env)
+                _start_local_ray(ray, workers, env)
             else:
                 ray.init(address=address, log_to_driver=False, configure_logging=False,
                          runtime_env=env)
