@@ -102,14 +102,18 @@ def test_report_lists_every_failure_with_its_reason(tmp_path: Path) -> None:
     hit = Outcome(Scenario("hit", "office", Pose2D(0, 0, 0), Pose2D(1, 0, 0)), "SUCCEEDED",
                   collisions=1)
     mute = Outcome(Scenario("mute", "office", Pose2D(0, 0, 0), Pose2D(1, 0, 0)), "FAILED")
-    outs = [ok, late, hit, mute]
+    stuck = Outcome(Scenario("stuck", "office", Pose2D(0, 0, 0), Pose2D(1, 0, 0)), "FAILED",
+                    "could not reach the goal after 6 recoveries: FollowPath failed: made no "
+                    "progress toward the goal: the distance went from 9.34 m to 9.34 m")
+    outs = [ok, late, hit, mute, stuck]
     m = chaos_metrics(outs)
-    assert m["failures"] == 3.0 and m["failures_without_reason"] == 2.0
-    assert m["success_rate_nominal"] == 0.25
+    assert m["failures"] == 4.0 and m["failures_without_reason"] == 2.0
+    assert m["success_rate_nominal"] == 0.2
     res = BenchResult("navigation-sweep", {"success_rate": 0.25, "collisions": 1.0,
                                            "real_time_factor": 20.0})
     md = markdown(res, outs)
     assert "| timeout | 1 |" in md and "| collision | 1 |" in md
     assert "| FAILED without a reason | 1 |" in md
+    assert "| failed: FollowPath failed: made no progress toward the goal | 1 |" in md
     assert "| late | nominal | TIMEOUT | timed out after 120 s |" in md
     assert "| mute | nominal | FAILED | (no reason given) |" in md

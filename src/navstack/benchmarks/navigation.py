@@ -384,7 +384,11 @@ def failure_category(o: Outcome) -> str:
         return f"expected failure ended {o.status or 'without a status'}"
     if not o.reason:
         return f"{o.status or 'no status'} without a reason"
-    return f"{o.status.lower()}: {o.reason.split(':')[0].strip()[:60]}"
+    parts = [part.strip() for part in o.reason.split(": ")]
+    for i, part in enumerate(parts[:-1]):  # the failing server and its first cause
+        if part.endswith(" failed"):
+            return f"{o.status.lower()}: {part}: {parts[i + 1]}"[:100]
+    return f"{o.status.lower()}: {parts[0]}"[:100]
 
 
 def case_row(o: Outcome) -> dict[str, Any]:
