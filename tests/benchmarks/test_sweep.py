@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -11,6 +13,8 @@ import pytest
 from navstack.benchmarks.navigation import Outcome, Scenario, chaos_suite
 from navstack.benchmarks.sweep import Job, SweepError, run_jobs
 from navstack.core.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _short_jobs(count: int) -> list[Job]:
@@ -45,13 +49,28 @@ def test_local_processes_match_serial_exactly(jobs: list[Job], serial: list[Outc
     assert [o.result_key() for o in local] == [o.result_key() for o in serial]
 
 
-def test_ray_cluster_of_two_matches_serial_exactly(jobs: list[Job],
-                                                   serial: list[Outcome]) -> None:
+_RAY_CHILD = """
+import json
+from navstack.benchmarks.sweep import run_jobs
+from tests.benchmarks.test_sweep import _short_jobs
+done = []
+out = run_jobs(_short_jobs(3), "ray", workers=2,
+               progress=lambda stage, d, total: done.append(d))
+print(json.dumps({"keys": [list(o.result_key()) for o in out], "done": done}))
+"""
+
+
+def test_ray_cluster_of_two_matches_serial_exactly(serial: list[Outcome]) -> None:
+    """In a child process: a Ray driver installs its own SIGTERM handler and background
+    threads, which must not outlive this test in the pytest process."""
     pytest.importorskip("ray")
-    done: list[int] = []
-    on_ray = run_jobs(jobs, "ray", workers=2,
-                      progress=lambda stage, d, total: done.append(d))
-    assert [o.result_key() for o in on_ray] == [o.result_key() for o in serial]
+    res = subprocess.run([sys.executable, "-c", _RAY_CHILD], cwd=ROOT, capture_output=True,
+                         text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stderr[-3000:]
+    data = json.loads(res.stdout.strip().splitlines()[-1])
+    want = [json.loads(json.dumps(list(o.result_key()))) for o in serial]
+    assert data["keys"] == want
+    done = data["done"]
     assert done[0] == 0 and done[-1] == 3 and done == sorted(done)
 
 
