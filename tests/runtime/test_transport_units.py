@@ -81,6 +81,20 @@ def test_shift_stamps_moves_every_header() -> None:
     assert shift_stamps(goal, 0.0) is goal
 
 
+def test_lazy_path_crosses_the_transport() -> None:
+    """A Path made from an array builds its poses only when read; its fields (``_poses``
+    None, ``_xyt``) must survive the envelope and a stamp shift."""
+    xyt = np.array([[0.0, 0.0, 0.0], [1.0, 0.5, 0.3]])
+    lazy = Path.from_array(xyt, "map", 4.0)
+    back = decode_envelope(encode_envelope(FollowPathGoal(lazy))).path
+    assert np.array_equal(back.as_array(), xyt) and back.header.stamp == 4.0
+    assert [round(p.pose.position.y, 9) for p in back.poses] == [0.0, 0.5]
+    moved = shift_stamps(FollowPathGoal(Path.from_array(xyt, "map", 4.0)), 1.0).path
+    assert moved.header.stamp == 5.0 and np.array_equal(moved.as_array(), xyt)
+    with pytest.raises(ValueError, match="_xyt"):
+        Path(Header(), _poses=None)
+
+
 def test_blackouts_and_loss() -> None:
     link = ImpairedLink(LinkImpairments(blackouts=[(5.0, 2.0)], loss=0.25, seed=3))
     assert link.in_blackout(5.0) and link.in_blackout(6.99) and not link.in_blackout(7.0)

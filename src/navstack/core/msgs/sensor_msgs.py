@@ -259,6 +259,13 @@ class OccupancyGrid:
         return math.floor(ly / self.info.resolution), math.floor(lx / self.info.resolution)
 
 
+class _Unset:
+    """Marks an argument not given (``None`` is a meaningful ``_poses`` value)."""
+
+
+_UNSET = _Unset()
+
+
 @dataclass(frozen=True, slots=True, eq=False, init=False, repr=False)
 class Path:
     """nav_msgs/Path: a sequence of stamped poses in ``header.frame_id``.
@@ -275,9 +282,19 @@ class Path:
     _xyt: NDArray[np.float64] | None
 
     def __init__(self, header: Header | None = None, poses: Iterable[PoseStamped] = (),
-                 _xyt: NDArray[np.float64] | None = None) -> None:
+                 _xyt: NDArray[np.float64] | None = None,
+                 _poses: Iterable[PoseStamped] | _Unset | None = _UNSET) -> None:
+        """``_poses`` is the field as :func:`dataclasses.fields` names it (the transport's
+        decoder and :func:`dataclasses.replace` pass it); ``None`` there means "made from
+        ``_xyt`` on first access"."""
         object.__setattr__(self, "header", Header() if header is None else header)
-        object.__setattr__(self, "_poses", poses if isinstance(poses, tuple) else tuple(poses))
+        if isinstance(_poses, _Unset):
+            _poses = poses
+        elif _poses is None and _xyt is None:
+            raise ValueError("Path: _poses=None needs the _xyt array to make them from")
+        if _poses is not None and not isinstance(_poses, tuple):
+            _poses = tuple(_poses)
+        object.__setattr__(self, "_poses", _poses)
         object.__setattr__(self, "_xyt", _xyt)
 
     @property
