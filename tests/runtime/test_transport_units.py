@@ -141,4 +141,4 @@ def test_post_from_another_thread_wakes_a_waiting_wall_loop() -> None:
     t0 = time.monotonic()
     threading.Timer(0.1, s.post, (lambda: (ran.append(time.monotonic() - t0), s.stop()),)).start()
     s.run_for(5.0)
-    assert ran and ran[0] < 0.5
+    assert ran and ran[0] < 2.5  # woken by the post, long before the 5 s sleep ended
