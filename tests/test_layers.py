@@ -6,11 +6,15 @@ relative imports resolved, ``importlib.import_module("...")`` / ``__import__("..
 with a literal name -- and compared with what its layer may import:
 
 * the algorithm packages (costmap, planning, control, localization, mapping, perception,
-  geo) import only ``core`` and each other: no runtime/bus, no node layer, nothing above;
+  geo, exploration) import only ``core`` and each other: no runtime/bus, no node layer,
+  nothing above;
 * the node layer (``nodes``) adapts algorithms and vehicle links to the bus: core,
   runtime, algorithms and drivers, nothing above it and not ``navigation`` beside it;
 * ``drivers`` is pure protocol and transport code: only ``core`` (no bus, no algorithm,
   no simulator, nothing above);
+* ``missions`` (behaviour trees over navigator goals) import anything below them --
+  navigation, nodes, runtime, algorithms -- but not ``interfaces``/``benchmarks`` above
+  them, nor ``sim``/``drivers`` (a mission runs on a real robot as in the simulator);
 * ``core`` imports only itself -- except the costmap data types that the plugin
   interfaces of ``core/interfaces.py`` name in annotations (under ``if TYPE_CHECKING:``
   only, so nothing is imported at run time; see :data:`ANNOTATION_ONLY`).
@@ -31,7 +35,8 @@ import pytest
 import navstack
 
 SRC = Path(navstack.__file__).resolve().parent
-ALGORITHMS = ("costmap", "planning", "control", "localization", "mapping", "perception", "geo")
+ALGORITHMS = ("costmap", "planning", "control", "localization", "mapping", "perception", "geo",
+              "exploration")
 ABOVE_ALGORITHMS = ("runtime", "nodes", "navigation", "interfaces", "benchmarks", "sim",
                     "drivers", "missions", "app")
 RULES: dict[str, tuple[str, ...]] = {
@@ -39,6 +44,9 @@ RULES: dict[str, tuple[str, ...]] = {
     "nodes": ("navigation", "interfaces", "benchmarks", "sim", "missions", "app"),
     "drivers": (*ALGORITHMS, "runtime", "nodes", "navigation", "interfaces", "benchmarks", "sim",
                 "missions", "app"),
+    # missions orchestrate navigator goals on the bus: above navigation and the node layer,
+    # below interfaces; they run on a real robot too, so never the simulator or drivers
+    "missions": ("interfaces", "benchmarks", "sim", "drivers", "app"),
     "core": (*ALGORITHMS, *ABOVE_ALGORITHMS),
 }
 # (importing module, imported module) pairs allowed under ``if TYPE_CHECKING:`` only: the
@@ -134,7 +142,7 @@ def test_annotation_only_exceptions_are_used_and_guarded() -> None:
 
 
 def test_every_algorithm_package_exists_and_is_checked() -> None:
-    for package in (*ALGORITHMS, "nodes", "drivers", "core"):
+    for package in (*ALGORITHMS, "nodes", "drivers", "missions", "core"):
         assert (SRC / package / "__init__.py").is_file(), package
         assert any((SRC / package).rglob("*.py"))
 

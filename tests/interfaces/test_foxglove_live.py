@@ -23,7 +23,9 @@ EXPECTED = {"/map": "foxglove.Grid", "/global_costmap/costmap": "foxglove.Grid",
             "/tf": "foxglove.FrameTransforms", "/tf_static": "foxglove.FrameTransforms",
             "/odom": "foxglove.Odometry", "/plan": "foxglove.PosesInFrame",
             "/local_plan": "foxglove.PosesInFrame", "/footprint": "foxglove.SceneUpdate",
-            "/markers": "foxglove.SceneUpdate"}
+            "/markers": "foxglove.SceneUpdate", "/explore/frontiers": "foxglove.SceneUpdate",
+            "/aruco/marker_map/markers": "foxglove.SceneUpdate"}
+JSON_CHANNELS = {"/mission/state"}
 
 
 def _varint(buf: bytes, i: int) -> tuple[int, int]:
@@ -80,12 +82,15 @@ def test_client_gets_channels_and_map_scan_tf(fox: tuple[NavStack, FoxgloveHandl
         assert (info["op"], info["name"], info["capabilities"]) == ("serverInfo", "navstack",
                                                                      ["time"])
         channels: dict[str, dict[str, Any]] = {}
-        while set(channels) != set(EXPECTED):
+        while set(channels) != set(EXPECTED) | JSON_CHANNELS:
             msg = json.loads(ws.recv(timeout=10))
             if msg["op"] == "advertise":
                 channels.update({c["topic"]: c for c in msg["channels"]})
-        assert {t: c["schemaName"] for t, c in channels.items()} == EXPECTED
-        assert {c["encoding"] for c in channels.values()} == {"protobuf"}
+        assert {t: c["schemaName"] for t, c in channels.items()
+                if t not in JSON_CHANNELS} == EXPECTED
+        assert {c["encoding"] for t, c in channels.items() if t not in JSON_CHANNELS} == {
+            "protobuf"}
+        assert {channels[t]["encoding"] for t in JSON_CHANNELS} == {"json"}
 
         topics = {1: "/map", 2: "/scan", 3: "/tf"}
         ws.send(json.dumps({"op": "subscribe", "subscriptions": [

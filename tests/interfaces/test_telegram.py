@@ -79,7 +79,8 @@ def test_location_sends_the_nearest_target_with_its_heading_and_reports(setup: S
     api = setup.api
     api.send_text(OPERATOR, "/start")
     assert "Send your location" in api.wait_for_reply(OPERATOR, lambda t: "Targets:" in t).text
-    lat, lon = setup.ll(2.2, 4.6)  # beside Goal_1 (2.5, 4.0, heading 0)
+    # beside Goal_1 (2.5, 4.0, heading 0), farther from Marker_View (2.2, 5.0)
+    lat, lon = setup.ll(2.5, 3.3)
     api.send_location(OPERATOR, lat, lon)
     reply = api.wait_for_reply(OPERATOR, lambda t: t.startswith("Going to"))
     assert reply.text.startswith("Going to Goal_1, the target nearest to you (1 m away), "
@@ -96,7 +97,7 @@ def test_location_sends_the_nearest_target_with_its_heading_and_reports(setup: S
     assert "SUCCEEDED" in status and "your target: Goal_1" in status
     api.send_text(OPERATOR, "/goals")
     goals = api.wait_for_reply(OPERATOR, lambda t: t.startswith("Targets:")).text
-    assert goals.count("\n- ") == 5 and "Goal_1 (" in goals and "m from you" in goals
+    assert goals.count("\n- ") == 6 and "Goal_1 (" in goals and "m from you" in goals
 
 
 def test_edited_live_location_switches_target(setup: Setup) -> None:

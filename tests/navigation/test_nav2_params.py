@@ -243,3 +243,17 @@ def test_command_chain_sections_are_checked_whole() -> None:
         "f.yaml")
     assert nav.data["twist_mux"]["ros__parameters"]["locks"] == {
         "e_stop_lock": {"topic": "e_stop", "timeout": 0.0, "priority": 255}}
+
+
+def test_mission_sections_load_without_a_note() -> None:
+    """The TurtleBot3 file's ``explore_node`` (explore_lite's node) and a ``coverage``
+    section are the missions' (navigation.nav2_params.MISSION_SECTIONS): accepted, not
+    noted as ignored, not passed to any server; an unknown section is still an error."""
+    data = {"controller_server": {"ros__parameters": {"controller_frequency": 20.0}},
+            "explore_node": {"ros__parameters": {"potential_scale": 1e-3}},
+            "coverage": {"ros__parameters": {"cell_size": 0.8}}}
+    nav = check_nav2_data(data, "f.yaml")
+    assert not any("explore_node" in n or "coverage" in n for n in nav.notes)
+    assert "explore_node" not in nav.data and "coverage" not in nav.data
+    with pytest.raises(ConfigError, match="unknown section"):
+        check_nav2_data({**data, "explore": {"ros__parameters": {}}}, "f.yaml")

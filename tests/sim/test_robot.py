@@ -14,7 +14,8 @@ from navstack.sim.robot import RobotParams, list_robots, load_robot, robot_from_
 
 
 def test_builtin_profiles_load() -> None:
-    assert list_robots() == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot"]
+    assert list_robots() == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot",
+                             "turtlebot3_waffle_pi"]
     for name in list_robots():
         robot = load_robot(name)
         assert robot.name == name
@@ -32,6 +33,25 @@ def test_turtlebot_profile_values() -> None:
         360, 12.0, 10.0, "base_scan")
     assert (lidar.mount.x, lidar.mount.z) == (-0.064, 0.122)
     assert isinstance(tb.kinematic_model(), DiffDrive)
+
+
+def test_turtlebot3_waffle_pi_has_the_real_robots_figures() -> None:
+    tb = load_robot("turtlebot3_waffle_pi")
+    k = tb.kinematics
+    assert (k.type, k.max_vel_x, k.max_vel_theta, k.wheel_separation) == (
+        "diff_drive", 0.26, 1.82, 0.287)
+    body = np.asarray(tb.footprint)
+    length, width = np.ptp(body[:, 0]), np.ptp(body[:, 1])
+    assert (length, width) == (pytest.approx(0.281), pytest.approx(0.306))
+    lidar = tb.sensors.lidar
+    assert (lidar.beams, lidar.range_min, lidar.range_max, lidar.rate_hz) == (
+        360, 0.12, 3.5, 5.0)
+    # LDS-01 precision: +-10 mm below 0.5 m, +-3.5 % beyond, read as 3-sigma bounds
+    assert lidar.noise_std + lidar.noise_std_per_m * 3.0 == pytest.approx(0.035)
+    cam = tb.sensors.camera
+    assert cam.enabled and (cam.width, cam.height) == (640, 480)
+    assert cam.horizontal_fov == pytest.approx(math.radians(62.2), abs=1e-3)
+    assert cam.mount.x > 0.0  # at the front
 
 
 def test_rover_profile_values() -> None:
@@ -112,8 +132,10 @@ def test_unknown_robot_name_lists_known() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_robot("turtlebott")
     assert str(err.value) == ("unknown robot 'turtlebott' (did you mean 'turtlebot'?); "
-                              "known: diff_drive, golf_cart, omni, rover, turtlebot")
-    assert err.value.known == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot"]
+                              "known: diff_drive, golf_cart, omni, rover, turtlebot, "
+                              "turtlebot3_waffle_pi")
+    assert err.value.known == ["diff_drive", "golf_cart", "omni", "rover", "turtlebot",
+                               "turtlebot3_waffle_pi"]
     with pytest.raises(ConfigError, match="robot profile file not found"):
         load_robot("/nonexistent/robot.yaml")
 

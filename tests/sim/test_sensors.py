@@ -286,6 +286,18 @@ def test_lidar_noise_bias_and_dropout_statistics() -> None:
     assert valid.min() >= 0.12 and valid.max() <= 12.0
 
 
+def test_lidar_range_proportional_noise() -> None:
+    """``noise_std + noise_std_per_m * r`` (the LDS-01 is specified in % of the range)."""
+    rng = np.random.default_rng(5)
+    lidar = LidarModel(LidarParams(noise_std=0.005, noise_std_per_m=0.01, range_max=20.0))
+    true = np.where(np.arange(360) % 2 == 0, 1.0, 3.0)
+    r = np.stack([s.ranges for s in (lidar.measure(true, 0.0, rng) for _ in range(3000))
+                  if s is not None]).astype(np.float64)
+    assert r[:, 0::2].std() == pytest.approx(0.015, rel=0.03)
+    assert r[:, 1::2].std() == pytest.approx(0.035, rel=0.03)
+    assert r[:, 1::2].mean() == pytest.approx(3.0, abs=1e-3)
+
+
 def test_lidar_same_seed_same_scan() -> None:
     lidar = LidarModel(LidarParams(noise_std=0.01, dropout_prob=0.01))
     true = np.linspace(0.05, 15.0, 360)

@@ -193,7 +193,8 @@ def test_unknown_world_name() -> None:
     with pytest.raises(UnknownNameError) as err:
         load_world("ofice")
     assert str(err.value) == ("unknown world 'ofice' (did you mean 'office'?); known: "
-                              "campus, maze, office, warehouse")
+                              "arena, campus, explore_dead_end, explore_facing_wall, "
+                              "explore_narrow_door, mars_yard, maze, office, warehouse")
     with pytest.raises(ConfigError) as cerr:
         load_world("no/such/world.yaml")
     assert str(cerr.value) == ("no/such/world.yaml: world file not found (check the path or "
@@ -209,11 +210,13 @@ def test_primitives_file_by_path(tmp_path: Path) -> None:
 
 
 # --- built-in worlds ----------------------------------------------------------------
-BUILTIN = ["campus", "maze", "office", "warehouse"]
+BUILTIN = ["campus", "mars_yard", "maze", "office", "warehouse"]
+MISSION_WORLDS = ["arena", "explore_dead_end", "explore_facing_wall", "explore_narrow_door"]
+"""Worlds of the mission issue (tests/sim/test_mission_worlds.py checks them)."""
 
 
 def test_catalogue() -> None:
-    assert list_worlds() == BUILTIN
+    assert list_worlds() == sorted(BUILTIN + MISSION_WORLDS)
     assert world_path("office").name == "office.yaml"
     assert load_world("maze").source == world_path("maze")
 
@@ -226,7 +229,7 @@ def worlds() -> dict[str, World]:
 @pytest.mark.parametrize("name", BUILTIN)
 def test_builtin_places_are_clear_and_reachable(worlds: dict[str, World], name: str) -> None:
     w = worlds[name]
-    radius = 1.2 if name == "campus" else 0.22
+    radius = 1.2 if name in ("campus", "mars_yard") else 0.22
     places = {"spawn": w.spawn, **w.waypoints}
     assert len(w.waypoints) >= 3
     # robot-sized dilation of the grid (cells within `radius` of an obstacle cell), then

@@ -27,6 +27,27 @@ def bench(
     controller: Annotated[str | None, typer.Option(
         "--controller", help="FollowPath controller of the navigation suite: dwb "
                              "(default), mppi or rpp.")] = None,
+    scenarios: Annotated[int | None, typer.Option(
+        "--scenarios", help="Navigation suite: run this many chaos scenarios (random trips "
+                            "with injected faults) instead of the fixed suite.")] = None,
+    executor: Annotated[str | None, typer.Option(
+        "--executor", help="Navigation suite: where scenarios run: serial (default), "
+                           "local (processes) or ray.")] = None,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", help="Parallel workers for --executor local/ray (default: one per "
+                          "CPU).")] = None,
+    address: Annotated[str | None, typer.Option(
+        "--address", help="Running Ray cluster to use (e.g. auto or ray://host:10001); "
+                          "default: start a local one.")] = None,
+    faults: Annotated[str | None, typer.Option(
+        "--faults", help="Chaos faults drawn with --scenarios: all (default), none or a "
+                         "comma list (lidar_dropout, odom_slip, scan_latency, tf_delay, "
+                         "kidnap, blocked, crowd).")] = None,
+    seed: Annotated[int | None, typer.Option(
+        "--seed", help="Seed of the chaos scenarios (default 7).")] = None,
+    report: Annotated[Path | None, typer.Option(
+        "--report", help="Folder for the sweep report (sweep.json, sweep.md, "
+                         "time_to_goal.png).")] = None,
 ) -> None:
     """Run a benchmark suite; prints a table of metrics and writes JSON.
 
@@ -42,7 +63,10 @@ def bench(
     if json_out is not None:
         check_out_file(json_out, "--json")
     try:
-        options = {"controller": controller} if controller is not None else {}
+        given = {"controller": controller, "scenarios": scenarios, "executor": executor,
+                 "workers": workers, "address": address, "faults": faults, "seed": seed,
+                 "report": report}
+        options = {k: v for k, v in given.items() if v is not None}
         with stop_on_sigterm(), StageProgress(f"bench {suite}") as progress:
             result = run_suite(suite, quick, data_dir, options, progress=progress)
     except NavstackError as exc:

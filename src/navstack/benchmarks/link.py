@@ -13,10 +13,13 @@ hardware-in-the-loop demos against their in-process twins.
    process with the same seed; metrics: success, collisions, the command latency the
    demo measured (p95), and the trajectory deviation -- the largest distance from a
    point of either trajectory to the other's path (symmetric Hausdorff distance over
-   0.1 s samples), budget 0.3 m.  The cart's Smac planner stops a search after
-   ``max_planning_time`` of *wall* time (5 s, Nav2's semantics), which makes two
-   in-process runs differ on a loaded machine; both runs of the comparison get 120 s so
-   only the link can make them differ.
+   0.1 s samples), budget 0.3 m.  Both runs plan deterministically: on simulated time
+   the planners count ``max_planning_time`` in expansions, not wall seconds
+   (:mod:`navstack.planning.budget`), so only the link can make them differ.
+   ``first_goal_deviation_m``: the same over the first leg.  ``sensitivity_1mm_m``: the
+   deviation of a third, in-process run whose robot starts 1 mm further forward -- how
+   far the route itself carries a difference no link can avoid (a float32, a decimal);
+   a deviation at that level is the route's, not the link's.
 
 The wall-clock figures depend on the machine's load; the 1-minute load average is
 recorded in the notes.
@@ -24,6 +27,7 @@ recorded in the notes.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import threading
@@ -34,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from navstack.benchmarks.common import BenchResult
-from navstack.core.config_files import load_yaml
+from navstack.core.msgs import Pose2D
 from navstack.drivers.errors import MalformedPacket
 from navstack.drivers.framing import FixedFramer
 from navstack.drivers.golf_cart import (
@@ -45,9 +49,10 @@ from navstack.drivers.golf_cart import (
 )
 from navstack.drivers.rover_vcu import decode_vcu_command, encode_vcu_command
 from navstack.drivers.transport import SerialTransport, Transport, UdpTransport
-from navstack.interfaces.demo import demo_setup, run_demo
+from navstack.interfaces.demo import run_demo
 from navstack.sim.vehicles.far_side import FarSide
 from navstack.sim.vehicles.pty import PtyMasterTransport
+from navstack.sim.worlds import load_world
 
 LATENCY_BUDGET_MS = 5.0
 DEVIATION_BUDGET_M = 0.3
@@ -64,11 +69,12 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
     """Added command latency of one link (module docstring), in ms."""
     tmp = Path(tempfile.mkdtemp(prefix="navstack-bench-link-"))
     decoded: list[float] = []
-    got = threading.Semaphore(0)
+    got = threading.Condition()
 
     def on_command(_cmd: object, wall: float) -> None:
-        decoded.append(wall)
-        got.release()
+        with got:
+            decoded.append(wall)
+            got.notify_all()
 
     far_t: Transport
     if kind == "udp":
@@ -89,7 +95,7 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
         driver = SerialTransport("steering", str(tmp / "ttyBENCH"), 115200)
     driver.open()
     latencies: list[float] = []
-    lost = 0
+    lost = sent = 0
     rng = np.random.default_rng(0)
     try:
         for _ in range(commands):
@@ -97,11 +103,20 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
             t0 = time.perf_counter()
             packet = encode_vcu_command(vx, wz) if kind == "udp" else \
                 encode_cart_command(vx, 0.3 * wz)
-            n = len(decoded)
-            if not driver.write(packet) or not got.acquire(timeout=0.5):
+            if not driver.write(packet):
                 lost += 1
                 continue
-            latencies.append(decoded[n] - t0)
+            n = sent  # the vehicle decodes in order: this command is decode number n
+            sent += 1
+
+            def arrived(n: int = n) -> bool:
+                return len(decoded) > n
+
+            with got:
+                if not got.wait_for(arrived, timeout=0.5):
+                    lost += 1  # late: it still takes its place in ``decoded``
+                    continue
+                latencies.append(decoded[n] - t0)
             time.sleep(pace)
     except MalformedPacket:
         lost += 1
@@ -130,41 +145,61 @@ def trajectory_deviation(a: np.ndarray, b: np.ndarray) -> float:
     return max(to_path(a, b), to_path(b, a))
 
 
-def _deterministic_params(robot: str, out: Path) -> Path:
-    """The robot's Nav2 file with Smac's wall-clock budget lifted (module docstring)."""
-    import yaml
-
-    setup = demo_setup(robot)
-    params = load_yaml(setup.nav2_params) if setup.nav2_params else {}
-    grid = params.get("planner_server", {}).get("ros__parameters", {}).get("GridBased", {})
-    if "Smac" in str(grid.get("plugin", "")):
-        grid["max_planning_time"] = 120.0
-    path = out / f"{robot}_nav2_params.yaml"
-    path.write_text(yaml.safe_dump(params))
-    return path
+SENSITIVITY_OFFSET_M = 0.001
+"""How far the sensitivity run's spawn moves the robot forward [m]."""
 
 
-def compare_demo(robot: str, link: str, out: Path, seed: int = 1) -> dict[str, Any]:
-    """The demo in process and through ``link``; success, collisions, deviation, latency."""
-    params = _deterministic_params(robot, out)
+def compare_demo(robot: str, link: str, out: Path, seed: int = 1,
+                 sensitivity: bool = True) -> dict[str, Any]:
+    """The demo in process and through ``link``; success, collisions, deviation, latency.
+
+    ``sensitivity``: also run in process with the robot spawned 1 mm forward, and report
+    that run's deviation from the reference -- the route's own sensitivity, the floor
+    under any comparison that is not bit-exact (docs/drivers.md)."""
     t0 = time.perf_counter()
-    ref = run_demo(out / f"{robot}-inproc", seed, robot=robot, show_progress=False,
-                   nav2_params=params)
+    ref = run_demo(out / f"{robot}-inproc", seed, robot=robot, show_progress=False)
     t1 = time.perf_counter()
     hil = run_demo(out / f"{robot}-{link}", seed, robot=robot, show_progress=False,
-                   link=link, nav2_params=params)  # type: ignore[arg-type]
+                   link=link)  # type: ignore[arg-type]
     t2 = time.perf_counter()
-    a = np.loadtxt(out / f"{robot}-inproc" / "trajectory.csv", delimiter=",", skiprows=1)
-    b = np.loadtxt(out / f"{robot}-{link}" / "trajectory.csv", delimiter=",", skiprows=1)
+    a = _trajectory(out / f"{robot}-inproc")
+    b = _trajectory(out / f"{robot}-{link}")
     lat = hil["link"]["command_latency"]
-    return {"robot": robot, "link": link, "inproc_success": ref["success"],
-            "hil_success": hil["success"], "hil_collisions": hil["collisions"],
-            "inproc_collisions": ref["collisions"],
-            "deviation_m": round(trajectory_deviation(a[:, 1:3], b[:, 1:3]), 4),
-            "hil_latency_p50_ms": lat["p50_ms"], "hil_latency_p95_ms": lat["p95_ms"],
-            "hil_latency_max_ms": lat["max_ms"], "commands": hil["link"]["commands_sent"],
-            "sim_time_s": hil["sim_time_s"], "inproc_wall_s": round(t1 - t0, 1),
-            "hil_wall_s": round(t2 - t1, 1)}
+    case: dict[str, Any] = {
+        "robot": robot, "link": link, "inproc_success": ref["success"],
+        "hil_success": hil["success"], "hil_collisions": hil["collisions"],
+        "inproc_collisions": ref["collisions"],
+        "deviation_m": round(trajectory_deviation(a, b), 4),
+        "first_goal_deviation_m": round(_first_goal_deviation(a, b, ref), 4),
+        "hil_latency_p50_ms": lat["p50_ms"], "hil_latency_p95_ms": lat["p95_ms"],
+        "hil_latency_max_ms": lat["max_ms"], "commands": hil["link"]["commands_sent"],
+        "sync_timeouts": hil["link"]["sync_timeouts"],
+        "sim_time_s": hil["sim_time_s"], "inproc_wall_s": round(t1 - t0, 1),
+        "hil_wall_s": round(t2 - t1, 1)}
+    if sensitivity:
+        spawn = load_world(ref["world"]).spawn
+        moved = Pose2D(spawn.x + SENSITIVITY_OFFSET_M * math.cos(spawn.theta),
+                       spawn.y + SENSITIVITY_OFFSET_M * math.sin(spawn.theta), spawn.theta)
+        run_demo(out / f"{robot}-moved", seed, robot=robot, show_progress=False, spawn=moved)
+        c = _trajectory(out / f"{robot}-moved")
+        case["sensitivity_1mm_m"] = round(trajectory_deviation(a, c), 4)
+        case["sensitivity_1mm_first_goal_m"] = round(_first_goal_deviation(a, c, ref), 4)
+    return case
+
+
+def _trajectory(out: Path) -> np.ndarray:
+    """``(N, 3)``: t, x, y of a demo's true trajectory."""
+    return np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)[:, :3]
+
+
+def _first_goal_deviation(a: np.ndarray, b: np.ndarray, ref: dict[str, Any]) -> float:
+    """Deviation over the first leg: up to the reference's first goal time, and ``b``
+    up to the point nearest the reference's end of that leg."""
+    t_end = ref["goals"][0]["time_s"]
+    leg_a = a[a[:, 0] <= t_end + 1e-9, 1:3]
+    end = leg_a[-1]
+    k = int(np.argmin(np.hypot(b[:, 1] - end[0], b[:, 2] - end[1])))
+    return trajectory_deviation(leg_a, b[:k + 1, 1:3])
 
 
 def run(quick: bool, data_dir: Path, commands: int = 2000) -> BenchResult:
@@ -179,8 +214,10 @@ def run(quick: bool, data_dir: Path, commands: int = 2000) -> BenchResult:
         for robot, link in robots:
             case = compare_demo(robot, link, Path(tmp))
             result.cases.append(case)
-            for key in ("hil_success", "hil_collisions", "deviation_m", "hil_latency_p95_ms"):
-                result.metrics[f"{robot}_{key}"] = float(case[key])
+            for key in ("hil_success", "hil_collisions", "deviation_m",
+                        "first_goal_deviation_m", "sensitivity_1mm_m", "hil_latency_p95_ms"):
+                if key in case:
+                    result.metrics[f"{robot}_{key}"] = float(case[key])
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     result.notes.append(f"budgets: latency p95 <= {LATENCY_BUDGET_MS} ms, trajectory "
                         f"deviation <= {DEVIATION_BUDGET_M} m; 1-minute load average "

@@ -43,10 +43,12 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from navstack.benchmarks.chaos import Fault, attach_fault, robot_with_fault, world_with_fault
 from navstack.benchmarks.common import BenchResult, Progress, no_progress
 from navstack.core.errors import ConfigError, UnknownNameError
 from navstack.core.msgs import Pose2D, PoseStamped
 from navstack.runtime.config import load_yaml
+from navstack.sim.robot import load_robot
 from navstack.sim.world import World
 from navstack.sim.worlds import load_world
 
@@ -127,6 +129,7 @@ class Scenario:
     block: tuple[float, float, float, float] | None = None  # unmapped box x0, y0, x1, y1
     pocket: tuple[float, float, float, float] | None = None  # walled square, mapped
     timeout_s: float = 120.0
+    fault: Fault | None = None  # the chaos suite's injected fault (chaos.py)
 
 
 @dataclass
@@ -144,6 +147,14 @@ class Outcome:
     min_static_m: float = math.inf
     min_moving_m: float | None = None
     motion: dict[str, Any] = field(default_factory=dict)
+    fault_events: list[str] = field(default_factory=list)  # what an injected fault did
+
+    def result_key(self) -> tuple[Any, ...]:
+        """What a run of the scenario decides (no wall times): equal across processes
+        and executors for one seed."""
+        return (self.scenario.name, self.status, self.reason, round(self.sim_time_s, 6),
+                self.collisions, self.recoveries, round(self.final_dist_m, 6),
+                tuple(self.fault_events))
 
     @property
     def passed(self) -> bool:
@@ -183,6 +194,10 @@ def random_pairs(world_name: str, count: int, rng: np.random.Generator,
 
 
 def scenarios(quick: bool = False, seed: int = 7) -> list[Scenario]:
+    return _suite(quick, seed)
+
+
+def _suite(quick: bool = False, seed: int = 7) -> list[Scenario]:
     """The scenario suite (quick: a smaller deterministic subset for CI)."""
     rng = np.random.default_rng(seed)
     n_office, n_warehouse, n_maze = (3, 2, 1) if quick else (10, 10, 6)
@@ -244,9 +259,12 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
     map_grid = world.to_occupancy_grid()
     if sc.block is not None:
         world = _with_box(world, sc.block)  # in the simulator only, not on the map
+    world = world_with_fault(world, sc.fault)  # unmapped box or people: simulator only
+    robot = robot_with_fault(load_robot("diff_drive"), sc.fault)
     wall0 = time.perf_counter()
-    stack = NavStack(world, seed=seed, spawn=sc.start, map_grid=map_grid,
+    stack = NavStack(world, robot, seed=seed, spawn=sc.start, map_grid=map_grid,
                      nav2_params=nav2_params_for(controller)).start()
+    events = attach_fault(stack, sc.fault)
     outcome = Outcome(sc)
     ctrl = next(iter(stack.controller.controllers.values()))
     compute = ctrl.compute
@@ -287,6 +305,7 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
     outcome.loop_wall_s = time.perf_counter() - loop0
     outcome.wall_time_s = time.perf_counter() - wall0
     outcome.collisions = stack.sim.sim.collisions
+    outcome.fault_events = events
     p = stack.sim.sim.pose
     outcome.final_dist_m = math.hypot(p.x - sc.goal.x, p.y - sc.goal.y)
     recorder.sample()
@@ -311,18 +330,38 @@ def _motion_metrics(outcomes: list[Outcome]) -> dict[str, float]:
     return out
 
 
+def chaos_suite(count: int, seed: int = 7, faults: str = "all") -> list[Scenario]:
+    """``count`` chaos scenarios (:func:`navstack.benchmarks.chaos.chaos_trips`)."""
+    from navstack.benchmarks.chaos import chaos_trips, parse_faults
+
+    return [Scenario(name, world, start, goal, "chaos", timeout_s=timeout, fault=fault)
+            for name, world, start, goal, fault, timeout
+            in chaos_trips(count, seed, parse_faults(faults))]
+
+
 def run(quick: bool, data_dir: Path | None, controller: str = "",
-        progress: Progress = no_progress) -> BenchResult:
-    """The suite with ``controller`` (``dwb`` default, ``mppi``, ``rpp``) as FollowPath."""
+        progress: Progress = no_progress, scenarios: int | None = None,
+        executor: str = "serial", workers: int | None = None, address: str | None = None,
+        faults: str = "all", seed: int = 7, report: Path | None = None) -> BenchResult:
+    """The suite with ``controller`` (``dwb`` default, ``mppi``, ``rpp``) as FollowPath.
+
+    ``scenarios``: run that many chaos scenarios (:func:`chaos_suite` from ``seed``
+    with ``faults``) instead of the fixed suite; ``executor``/``workers``/``address``
+    choose where they run (:mod:`navstack.benchmarks.sweep`); ``report``: a folder for
+    the Markdown report and the time-to-goal plot (:mod:`navstack.benchmarks.sweep_report`).
+    """
+    from navstack.benchmarks.sweep import Job, check_executor, default_workers, timed_jobs
+
     name = controller.lower() or "dwb"
     nav2_params_for(name)  # an unknown name fails before the first scenario
-    result = BenchResult("navigation")
-    todo = scenarios(quick)
-    outcomes = []
-    progress("scenarios", 0, len(todo))
-    for i, sc in enumerate(todo):
-        outcomes.append(run_scenario(sc, seed=i, controller=name))
-        progress("scenarios", i + 1, len(todo))
+    check_executor(executor, workers, address)
+    if scenarios is not None and scenarios < 1:
+        raise ConfigError(f"--scenarios must be >= 1, got {scenarios}", key_path="--scenarios",
+                          suggestion="leave it out for the fixed suite")
+    result = BenchResult("navigation" if scenarios is None else "navigation-sweep")
+    todo = (_suite(quick) if scenarios is None else chaos_suite(scenarios, seed, faults))
+    jobs = [Job(sc, i, name) for i, sc in enumerate(todo)]
+    outcomes, sweep_wall = timed_jobs(jobs, executor, workers, address, progress)
     cycles = [c for o in outcomes for c in o.cycle_ms]
     sim_total = sum(o.sim_time_s for o in outcomes)
     loop_total = sum(o.loop_wall_s for o in outcomes)
@@ -345,25 +384,68 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     }
     if name == "dwb":
         result.metrics["dwb_cycle_ms"] = result.metrics["controller_cycle_ms"]
+    result.metrics["sweep_wall_s"] = sweep_wall
+    if executor != "serial":
+        result.metrics["workers"] = float(workers or default_workers())
+    if scenarios is not None:
+        from navstack.benchmarks.sweep_report import chaos_metrics
+
+        result.metrics.update(chaos_metrics(outcomes))
     for o in outcomes:
-        result.cases.append({
-            "name": o.scenario.name, "kind": o.scenario.kind, "passed": o.passed,
-            "status": o.status, "reason": o.reason, "sim_time_s": round(o.sim_time_s, 2),
-            "wall_time_s": round(o.wall_time_s, 2), "collisions": o.collisions,
-            "recoveries": o.recoveries, "final_dist_m": round(o.final_dist_m, 3),
-            "min_clearance_static_m": round(o.min_static_m, 4),
-            "min_clearance_moving_m": (round(o.min_moving_m, 4)
-                                       if o.min_moving_m is not None else None),
-            **({"self_crossings": o.motion["self_crossings"],
-                "length_ratio": o.motion["length_ratio"], "plans": o.motion["plans"],
-                "max_sign_changes_per_10m": o.motion["max_sign_changes_per_10m"]}
-               if o.motion else {})})
+        result.cases.append(case_row(o))
     failed = [c["name"] for c in result.cases if not c["passed"]]
     result.notes.append(f"controller: {name} ({CONTROLLERS[name]})")
+    result.notes.append(f"executor: {executor}"
+                        + (f" at {address}" if address else "")
+                        + f", wall {sweep_wall:.1f} s")
     result.notes.append(f"budgets: success_rate >= 0.95, collisions == 0, "
                         f"min_clearance_moving_m >= 0.10, motion_quality_ok == 1, "
                         f"controller_cycle_ms <= {CYCLE_BUDGET_MS[name]:g}, "
                         f"real_time_factor >= 10")
     if failed:
         result.notes.append("not passed: " + ", ".join(failed))
+    if report is not None:
+        from navstack.benchmarks.sweep_report import write_report
+
+        for path in write_report(result, outcomes, report):
+            result.notes.append(f"report: {path}")
     return result
+
+
+def failure_category(o: Outcome) -> str:
+    """Why a scenario did not pass, in a few words ("" when it passed)."""
+    if o.passed:
+        return ""
+    if o.collisions:
+        return "collision"
+    if o.status == "TIMEOUT":
+        return "timeout"
+    if not o.scenario.expect_success:
+        return f"expected failure ended {o.status or 'without a status'}"
+    if not o.reason:
+        return f"{o.status or 'no status'} without a reason"
+    parts = [part.strip() for part in o.reason.split(": ")]
+    for i, part in enumerate(parts[:-1]):  # the failing server and its first cause
+        if part.endswith(" failed"):
+            return f"{o.status.lower()}: {part}: {parts[i + 1]}"[:100]
+    return f"{o.status.lower()}: {parts[0]}"[:100]
+
+
+def case_row(o: Outcome) -> dict[str, Any]:
+    """One scenario's row of the result (and of the sweep report)."""
+    fault = o.scenario.fault
+    return {
+        "name": o.scenario.name, "kind": o.scenario.kind, "passed": o.passed,
+        "status": o.status, "reason": o.reason, "sim_time_s": round(o.sim_time_s, 2),
+        "wall_time_s": round(o.wall_time_s, 2), "collisions": o.collisions,
+        "recoveries": o.recoveries, "final_dist_m": round(o.final_dist_m, 3),
+        "min_clearance_static_m": round(o.min_static_m, 4),
+        "min_clearance_moving_m": (round(o.min_moving_m, 4)
+                                   if o.min_moving_m is not None else None),
+        **({"self_crossings": o.motion["self_crossings"],
+            "length_ratio": o.motion["length_ratio"], "plans": o.motion["plans"],
+            "max_sign_changes_per_10m": o.motion["max_sign_changes_per_10m"]}
+           if o.motion else {}),
+        **({"fault": fault.label()} if fault is not None else {}),
+        **({"fault_events": "; ".join(o.fault_events)} if o.fault_events else {}),
+        **({"failure": failure_category(o)} if not o.passed else {})}

@@ -24,8 +24,15 @@ SUITE_MODULES: dict[str, str] = {
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",
     "hybrid": "navstack.benchmarks.hybrid",
+    "camera": "navstack.benchmarks.camera",
+    "aruco": "navstack.benchmarks.aruco",
+    "marker-frame": "navstack.benchmarks.marker_frame",
+    "retrieval": "navstack.benchmarks.retrieval",
+    "gripper": "navstack.benchmarks.gripper",
+    "exploration": "navstack.benchmarks.exploration",
     "link": "navstack.benchmarks.link",
     "safety": "navstack.benchmarks.safety",
+    "rover": "navstack.benchmarks.rover",
 }
 
 

@@ -77,6 +77,18 @@ class GlobalPlanner(ABC):
         footprint (Nav2 ``configure``); planners that check the body or read the
         inflation layer keep what they need.  Default: nothing."""
 
+    simulated_time: bool = False
+    """The clock is simulated: a ``max_planning_time`` becomes a fixed expansion budget
+    (:mod:`navstack.planning.budget`) instead of a wall-clock deadline."""
+
+    def use_simulated_time(self, simulated: bool) -> None:
+        """Told by the planner server whether its clock is simulated (stepped) time.
+
+        Planners with a wall-clock budget (``max_planning_time``) then count it in
+        expansions, so a seed plans the same on any machine; on the wall clock (a robot,
+        a notebook) they keep Nav2's deadline.  Planners without one ignore it."""
+        self.simulated_time = simulated
+
     @abstractmethod
     def plan(self, start: Pose2D, goal: Pose2D, costmap: Costmap2D,
              cancel: CancelFn | None = None) -> Path:

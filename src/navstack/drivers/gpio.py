@@ -25,7 +25,8 @@ from pydantic import Field
 from navstack.core.params import Params
 from navstack.drivers.errors import LinkUnavailable
 
-__all__ = ["DigitalOutput", "GpioParams", "GpioUnavailable", "make_pin_factory"]
+__all__ = ["DigitalOutput", "GpioParams", "GpioUnavailable", "gpiozero_device",
+           "make_pin_factory", "missing_gpiozero"]
 
 
 class GpioUnavailable(LinkUnavailable):
@@ -43,25 +44,37 @@ class GpioParams(Params):
     """"default" (gpiozero's choice for this board) or "mock" (no hardware)."""
 
 
-def make_pin_factory(name: str | Any) -> Any:
+def make_pin_factory(name: str | Any, pwm: bool = False) -> Any:
     """A gpiozero pin factory: ``None`` for gpiozero's default, a ``MockFactory`` for
-    ``"mock"``, or the object given."""
+    ``"mock"`` (with PWM-capable mock pins when ``pwm``), or the object given."""
     if not isinstance(name, str):
         return name
     if name == "default":
         return None
     if name == "mock":
         try:
-            from gpiozero.pins.mock import MockFactory
+            from gpiozero.pins.mock import MockFactory, MockPWMPin
         except ImportError as exc:
-            raise GpioUnavailable(_missing(exc)) from None
-        return MockFactory()
+            raise GpioUnavailable(missing_gpiozero(exc)) from None
+        return MockFactory(pin_class=MockPWMPin) if pwm else MockFactory()
     raise GpioUnavailable(f"unknown pin_factory {name!r}; use 'default' or 'mock'")
 
 
-def _missing(exc: ImportError) -> str:
+def missing_gpiozero(exc: ImportError) -> str:
+    """The error text when gpiozero cannot be imported."""
     return (f"gpiozero is not installed ({exc}); install it with "
             "`pip install navstack[hardware]`")
+
+
+def gpiozero_device(name: str) -> tuple[Any, type[Exception]]:
+    """gpiozero's device class ``name`` and its base error ``GPIOZeroError``; raises
+    :class:`GpioUnavailable` when gpiozero is not installed."""
+    try:
+        import gpiozero
+        from gpiozero.exc import GPIOZeroError
+    except ImportError as exc:
+        raise GpioUnavailable(missing_gpiozero(exc)) from None
+    return getattr(gpiozero, name), GPIOZeroError
 
 
 class DigitalOutput:
@@ -81,17 +94,12 @@ class DigitalOutput:
     def open(self) -> None:
         if self._device is not None:
             return
-        try:
-            from gpiozero import DigitalOutputDevice
-            from gpiozero.exc import GPIOZeroError
-        except ImportError as exc:
-            raise GpioUnavailable(_missing(exc)) from None
+        device, gpio_error = gpiozero_device("DigitalOutputDevice")
         p = self.params
         try:
-            self._device = DigitalOutputDevice(p.pin, active_high=p.active_high,
-                                               initial_value=p.initial_value,
-                                               pin_factory=self._factory)
-        except (GPIOZeroError, OSError, RuntimeError) as exc:
+            self._device = device(p.pin, active_high=p.active_high,
+                                  initial_value=p.initial_value, pin_factory=self._factory)
+        except (gpio_error, OSError, RuntimeError) as exc:
             raise GpioUnavailable(
                 f"GPIO{p.pin}: cannot open as a digital output: {type(exc).__name__}: {exc}; "
                 "on a machine without GPIO use pin_factory: mock") from None

@@ -1,15 +1,16 @@
 """``navstack.Navigator``: the nav2_simple_commander ``BasicNavigator`` API on a stack.
 
 Method names and semantics mirror nav2_simple_commander so Nav2 scripts port with few
-changes: ``goToPose``, ``goThroughPoses``, ``followWaypoints``, ``getFeedback``,
-``isTaskComplete``, ``cancelTask``, ``getResult``, ``setInitialPose``, ``getPath``,
-``clearAllCostmaps``.  The stack runs in this process on simulated time, so
+changes: ``goToPose``, ``goThroughPoses``, ``followWaypoints``, ``followGpsWaypoints``,
+``getFeedback``, ``isTaskComplete``, ``cancelTask``, ``getResult``, ``setInitialPose``,
+``getPath``, ``clearAllCostmaps``.  The stack runs in this process on simulated time, so
 ``isTaskComplete()`` advances the simulation by ``spin_period`` (the counterpart of
 ``rclpy.spin_until_future_complete(timeout_sec=0.1)``) before it answers.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
 from typing import Any
 
@@ -22,6 +23,8 @@ from navstack.core.msgs import (
     PoseWithCovariance,
     PoseWithCovarianceStamped,
 )
+from navstack.interfaces.geo_frame import GeoFrame
+from navstack.interfaces.gps_waypoints import gps_waypoints_in_map
 from navstack.interfaces.stack import NavStack
 from navstack.navigation import messages as m
 from navstack.runtime.actions import ActionClient, ActionResult, GoalHandle, GoalStatus
@@ -84,6 +87,31 @@ class Navigator:
 
     def followWaypoints(self, poses: list[PoseStamped], names: list[str] | None = None) -> bool:
         return self._start(self._follow, m.FollowWaypointsGoal(tuple(poses), tuple(names or ())))
+
+    def followGpsWaypoints(self, gps_poses: Sequence[Any]) -> bool:
+        """Follow GPS waypoints: ``(latitude, longitude[, enu_yaw])`` tuples, mappings or
+        GeoPose-like objects with ``latitude``/``longitude`` (decimal degrees or
+        ``"deg,min,sec"``).  Each is converted into ``map`` through the stack's navsat
+        transform (``fromLL``, :meth:`GeoFrame.for_stack`), rotation against east-north
+        included, then followed as :meth:`followWaypoints`.  ``False`` (and
+        ``last_error`` naming the waypoint) for a bad coordinate."""
+        try:
+            poses = gps_waypoints_in_map(GeoFrame.for_stack(self.stack), gps_poses,
+                                         self._robot_xy(), self.stack.now)
+        except NavstackError as exc:  # GeoError included: names the waypoint
+            if self._task is not None and not self._task.done:
+                self._task.cancel()
+            self._task = None
+            self.last_error = str(exc)
+            return False
+        return self.followWaypoints(poses)
+
+    def _robot_xy(self) -> tuple[float, float]:
+        try:
+            p = self.robot_pose()
+        except NavstackError:
+            return (0.0, 0.0)
+        return (p.x, p.y)
 
     def isTaskComplete(self) -> bool:
         """Advance the simulation by ``spin_period`` and tell whether the task ended."""

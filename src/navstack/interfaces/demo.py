@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.msgs import Path, PoseStamped
+from navstack.core.msgs import Path, Pose2D, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.hil import LinkKind, hil_stack
 from navstack.interfaces.motion_quality import (
@@ -159,7 +159,8 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
              show_progress: bool = True, record: bool = False, replace_bag: bool = False,
              attach: Callable[[NavStack], Callable[[], None]] | None = None,
              link: LinkKind | None = None,
-             nav2_params: FsPath | Mapping[str, Any] | None = None) -> dict[str, Any]:
+             nav2_params: FsPath | Mapping[str, Any] | None = None,
+             spawn: Pose2D | None = None) -> dict[str, Any]:
     """Run the waypoint mission and write the report files; returns the report dict.
 
     ``record``: also write a rosbag2 (MCAP) of the run to ``out/bag`` (the recorder's
@@ -168,7 +169,8 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     ``attach``: called with the stack once it is built (live viewers: web dashboard,
     Foxglove); returns the function that detaches them when the mission ends.
     ``link``: run through the robot's vehicle link (module docstring); ``nav2_params``:
-    instead of the robot's packaged Nav2 file.
+    instead of the robot's packaged Nav2 file; ``spawn``: instead of the world's spawn
+    pose (the link benchmark measures the route's sensitivity with it).
     """
     out.mkdir(parents=True, exist_ok=True)
     setup = demo_setup(robot)
@@ -178,14 +180,14 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     wall0 = time.perf_counter()
     vehicle_link = None
     if link is not None:
-        stack, vehicle_link = hil_stack(world, robot, params, seed, link)
+        stack, vehicle_link = hil_stack(world, robot, params, seed, link, spawn=spawn)
         try:
             stack.start()
         except BaseException:
             vehicle_link.close()
             raise
     else:
-        stack = NavStack(world, robot, nav2_params=params, seed=seed).start()
+        stack = NavStack(world, robot, nav2_params=params, seed=seed, spawn=spawn).start()
     bag = None
     if record:
         from navstack.runtime.recording import BagRecorder

@@ -18,6 +18,11 @@ topic                       schema                      source
 ``/local_plan``             ``foxglove.PosesInFrame``   controller's chosen trajectory (DWB)
 ``/footprint``              ``foxglove.SceneUpdate``    robot body, locked to ``base_link``
 ``/markers``                ``foxglove.SceneUpdate``    goal(s), waypoints, e-stop label
+``/aruco/marker_map/...``   ``foxglove.SceneUpdate``    ArUco markers and packages on the map
+``/mission/state``          JSON                        a running mission: status, behaviour,
+                                                        feedback, reason (missions/)
+``/explore/frontiers``      ``foxglove.SceneUpdate``    exploration frontiers: cells (blue;
+                                                        blacklisted red), goals (green spheres)
 ==========================  ==========================  ==========================================
 
 Settings follow ``foxglove_bridge``'s parameter names (``port`` 8765, ``address``), except
@@ -47,20 +52,34 @@ from pydantic import Field
 from navstack.core.errors import NavstackError, TransformError
 from navstack.core.msgs import (
     LaserScan,
+    MarkerArray,
     OccupancyGrid,
     Odometry,
     Path,
+    String,
     TFMessage,
 )
+from navstack.core.msgs.fiducial_msgs import MARKER_MAP_VIZ_TOPIC as ARUCO_TOPIC
 from navstack.core.params import Params
+from navstack.interfaces.foxglove_markers import marker_array_scene
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.stack import NavStack
+from navstack.missions.explore import FRONTIERS_TOPIC
+from navstack.missions.mission import MISSION_STATE_TOPIC
 from navstack.navigation import messages as m
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS, Subscription
 
 SUBPROTOCOL = "foxglove.sdk.v1"
 """WebSocket subprotocol spoken by the installed foxglove-sdk server (0.30)."""
 GRIDS = ("/map", "/global_costmap/costmap", "/local_costmap/costmap")
+MISSION_STATE_SCHEMA = {
+    "type": "object", "title": "navstack mission state",
+    "properties": {"name": {"type": "string"}, "status": {"type": "string"},
+                   "behaviour": {"type": "string"}, "feedback": {"type": "string"},
+                   "progress": {"type": "object"}, "elapsed": {"type": "number"},
+                   "reason": {"type": "string"}, "events": {"type": "array"}}}
+"""JSON schema of ``/mission/state`` (the MissionRunner's JSON)."""
+MAX_FRONTIER_CUBES = 3000
 
 
 class FoxgloveLiveError(NavstackError):
@@ -138,6 +157,33 @@ def poses_message(xyt: np.ndarray, frame_id: str, t: float) -> fm.PosesInFrame:
                                   for x, y, th in np.asarray(xyt)[:, :3]])
 
 
+def frontier_scene(msg: MarkerArray, t: float) -> fm.SceneUpdate:
+    """explore_lite's frontier markers as a SceneUpdate: a small cube per frontier cell
+    (the marker's colour; at most ``MAX_FRONTIER_CUBES``) and a sphere per goal."""
+    cubes: list[fm.CubePrimitive] = []
+    spheres: list[fm.SpherePrimitive] = []
+    for mk in msg.markers:
+        if mk.action != mk.ADD:
+            continue
+        color = _color(mk.color.r, mk.color.g, mk.color.b, mk.color.a)
+        if mk.type == mk.SPHERE:
+            p = mk.pose.position
+            spheres.append(fm.SpherePrimitive(pose=_pose(p.x, p.y, 0.1, 0.0),
+                                              size=fm.Vector3(x=mk.scale.x, y=mk.scale.y,
+                                                              z=mk.scale.z), color=color))
+        elif mk.type == mk.POINTS:
+            for p in mk.points:
+                if len(cubes) >= MAX_FRONTIER_CUBES:
+                    break
+                cubes.append(fm.CubePrimitive(pose=_pose(p.x, p.y, 0.02, 0.0),
+                                              size=fm.Vector3(x=0.05, y=0.05, z=0.04),
+                                              color=color))
+    frame = msg.markers[0].header.frame_id if msg.markers else "map"
+    return fm.SceneUpdate(entities=[fm.SceneEntity(timestamp=_stamp(t), frame_id=frame or "map",
+                                                   id="frontiers", cubes=cubes,
+                                                   spheres=spheres)])
+
+
 class _Listener(ServerListener):
     """Marks topics whose latched data must be re-sent (called from the server's thread);
     the other callbacks keep the protocol's no-op defaults."""
@@ -168,6 +214,10 @@ class FoxgloveLive:
         self.local_plan = fc.PosesInFrameChannel("/local_plan", context=ctx)
         self.footprint = fc.SceneUpdateChannel("/footprint", context=ctx)
         self.markers = fc.SceneUpdateChannel("/markers", context=ctx)
+        self.aruco = fc.SceneUpdateChannel(ARUCO_TOPIC, context=ctx)
+        self.mission = foxglove.Channel(MISSION_STATE_TOPIC, schema=MISSION_STATE_SCHEMA,
+                                        context=ctx)
+        self.frontiers = fc.SceneUpdateChannel(FRONTIERS_TOPIC, context=ctx)
         try:
             self.server = foxglove.start_server(
                 name="navstack", host=p.address, port=p.port, context=ctx,
@@ -203,6 +253,11 @@ class FoxgloveLive:
             self._subs.append(bus.subscribe("/odom", Odometry, self._on_odom, QoS(depth=10)))
             plan_topic = getattr(stack.planner.params, "plan_topic", "/plan")
             self._subs.append(bus.subscribe(plan_topic, Path, self._on_plan, LATCHED))
+            self._subs.append(bus.subscribe(ARUCO_TOPIC, MarkerArray, self._on_aruco, LATCHED))
+            self._subs.append(bus.subscribe(MISSION_STATE_TOPIC, String, self._on_mission,
+                                            LATCHED))
+            self._subs.append(bus.subscribe(FRONTIERS_TOPIC, MarkerArray, self._on_frontiers,
+                                            QoS(depth=1)))
 
         self.runner.call(setup)
         self._remove_observer = self.runner.add_observer(self._on_step)
@@ -260,10 +315,24 @@ class FoxgloveLive:
             angular_velocity=fm.Vector3(x=tw.angular.x, y=tw.angular.y, z=tw.angular.z)),
             msg.header.stamp)
 
+    def _on_aruco(self, msg: MarkerArray) -> None:
+        self._latched[ARUCO_TOPIC] = msg
+        if self.aruco.has_sinks():
+            self._log(self.aruco, marker_array_scene(msg, _ns(self.stack.now)), self.stack.now)
+
     def _on_plan(self, path: Path) -> None:
         self._latched["/plan"] = path
         if self.plan.has_sinks():
             self._send_plan(path)
+
+    def _on_mission(self, msg: String) -> None:
+        self._latched[MISSION_STATE_TOPIC] = msg
+        if self.mission.has_sinks():
+            self.mission.log(msg.data, log_time=_ns(self.stack.now))
+
+    def _on_frontiers(self, msg: MarkerArray) -> None:
+        if self.frontiers.has_sinks():
+            self._log(self.frontiers, frontier_scene(msg, self.stack.now), self.stack.now)
 
     def _send_plan(self, path: Path) -> None:
         self._log(self.plan, poses_message(path.as_array(), path.header.frame_id or "map",
@@ -275,7 +344,8 @@ class FoxgloveLive:
         resend = self._listener.resend
         if wall - self._last_republish >= self.params.republish_period:
             self._last_republish = wall
-            resend.update((*GRIDS, "/tf_static", "/plan", "/footprint"))
+            resend.update((*GRIDS, "/tf_static", "/plan", "/footprint", ARUCO_TOPIC,
+                           MISSION_STATE_TOPIC))
         while resend:
             self._republish(resend.pop(), now)
         if wall - self._last_frame < 1.0 / self.params.frame_rate:
@@ -295,8 +365,12 @@ class FoxgloveLive:
             self._log(self.tf_static, tf_message(latched), now)
         elif topic == "/plan" and latched is not None and self.plan.has_sinks():
             self._send_plan(latched)
+        elif topic == ARUCO_TOPIC and latched is not None and self.aruco.has_sinks():
+            self._log(self.aruco, marker_array_scene(latched, _ns(now)), now)
         elif topic == "/footprint" and self.footprint.has_sinks():
             self._log(self.footprint, self._footprint(now), now)
+        elif topic == MISSION_STATE_TOPIC and latched is not None and self.mission.has_sinks():
+            self.mission.log(latched.data, log_time=_ns(now))
 
     def _send_local_plan(self, now: float) -> None:
         for ctrl in self.stack.controller.controllers.values():

@@ -59,7 +59,7 @@ class VehicleLink:
 
     def __init__(self, robot: str | RobotParams, link: LinkKind | None = None, *,
                  driver_overrides: dict[str, Any] | None = None,
-                 sync_timeout: float = 0.25) -> None:
+                 sync_timeout: float = 1.0) -> None:
         self.robot = load_robot(robot) if isinstance(robot, str) else robot
         expected = HIL_LINKS.get(self.robot.name)
         if expected is None:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from py_trees.behaviour import Behaviour
@@ -104,9 +105,7 @@ def code_name(codes: type[IntEnum], code: int) -> str:
 # --- path geometry ------------------------------------------------------------------------
 def path_xy(path: Path) -> NDArray[np.float64]:
     """``(N, 2)`` positions of a path's poses."""
-    if not path.poses:
-        return np.zeros((0, 2))
-    return np.array([(p.pose.position.x, p.pose.position.y) for p in path.poses], dtype=np.float64)
+    return np.ascontiguousarray(path.as_array()[:, :2], dtype=np.float64)
 
 
 def distance_remaining(xy: NDArray[np.float64], x: float, y: float) -> float:
@@ -114,19 +113,39 @@ def distance_remaining(xy: NDArray[np.float64], x: float, y: float) -> float:
 
     The closest point is the orthogonal projection onto the nearest segment, so the
     value decreases smoothly as the robot advances (Nav2 ``distance_remaining`` uses the
-    closest vertex).  Vectorised over segments; 0 for an empty path.
+    closest vertex).  One compiled pass over the segments; 0 for an empty path.
     """
     n = len(xy)
     if n < 2:
         return 0.0
-    a, d = xy[:-1], np.diff(xy, axis=0)
-    seg2 = np.einsum("ij,ij->i", d, d)
-    rel = np.array([x, y]) - a
-    t = np.clip(np.einsum("ij,ij->i", rel, d) / np.where(seg2 > 0.0, seg2, 1.0), 0.0, 1.0)
-    gap = rel - t[:, None] * d
-    k = int(np.argmin(np.einsum("ij,ij->i", gap, gap)))
+    seg2 = np.empty(n - 1)
+    k, tk = _closest_segment(np.ascontiguousarray(xy, dtype=np.float64), float(x), float(y),
+                             seg2)
     seg_len = np.sqrt(seg2)
-    return float((1.0 - t[k]) * seg_len[k] + seg_len[k + 1:].sum())
+    return float((1.0 - tk) * seg_len[k] + seg_len[k + 1:].sum())
+
+
+@numba.njit(cache=True)
+def _closest_segment(xy: NDArray[np.float64], x: float, y: float,
+                     seg2: NDArray[np.float64]) -> tuple[int, float]:
+    """Index of the segment nearest to ``(x, y)`` (the first of equals) and the
+    projection parameter on it; fills ``seg2`` with the squared segment lengths."""
+    best, best_k, best_t = np.inf, 0, 0.0
+    for i in range(xy.shape[0] - 1):
+        dx = xy[i + 1, 0] - xy[i, 0]
+        dy = xy[i + 1, 1] - xy[i, 1]
+        s2 = dx * dx + dy * dy
+        seg2[i] = s2
+        rx = x - xy[i, 0]
+        ry = y - xy[i, 1]
+        t = (rx * dx + ry * dy) / (s2 if s2 > 0.0 else 1.0)
+        t = min(max(t, 0.0), 1.0)
+        gx = rx - t * dx
+        gy = ry - t * dy
+        g2 = gx * gx + gy * gy
+        if g2 < best:
+            best, best_k, best_t = g2, i, t
+    return best_k, best_t
 
 
 class PathCache:

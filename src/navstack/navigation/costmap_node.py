@@ -1,9 +1,10 @@
 """``CostmapNode``: a LayeredCostmap on the bus (Nav2 ``Costmap2DROS``).
 
 Subscribes the static map (``map_topic``, latched) and every observation source's topic
-(LaserScan), looks up the sensor pose in the costmap's ``global_frame`` at the scan's
-stamp through TF, updates the layers at ``update_frequency`` around the robot pose
-(``global_frame`` <- ``robot_base_frame``), publishes the master grid as an
+(LaserScan, or PointCloud2 for ``data_type: PointCloud2``), looks up the sensor pose in
+the costmap's ``global_frame`` at the scan's stamp through TF, updates the layers at
+``update_frequency`` around the robot pose (``global_frame`` <- ``robot_base_frame``),
+publishes the master grid as an
 OccupancyGrid on ``/<name>/costmap`` at ``publish_frequency`` and offers the Nav2 clear
 services ``/<name>/clear_entirely_<name>`` and ``/<name>/clear_around_<name>``.
 """
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.errors import ConfigError, TransformError
+from navstack.core.errors import ConfigError, ExtrapolationError, TransformError
 from navstack.core.msgs import (
     Header,
     LaserScan,
@@ -26,7 +27,9 @@ from navstack.core.msgs import (
     Pose,
     Pose2D,
 )
+from navstack.core.msgs.sensor_msgs import PointCloud2
 from navstack.core.polygon import Footprint
+from navstack.core.rotations import transform_to_matrix
 from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
 from navstack.costmap.layered_costmap import LayeredCostmap
 from navstack.costmap.obstacle_layer import ObstacleLayer
@@ -82,6 +85,10 @@ class CostmapNode(Node):
             elif isinstance(layer, ObstacleLayer):
                 for src, buf in layer.buffers.items():
                     topic = "/" + buf.params.topic.lstrip("/")
+                    if buf.params.data_type == "PointCloud2":
+                        self.create_subscription(topic, PointCloud2,
+                                                 partial(self._on_cloud, layer, src), SENSOR_DATA)
+                        continue
                     self.create_subscription(topic, LaserScan,
                                              partial(self._on_scan, layer, src), SENSOR_DATA)
         self.filter_feed.configure()
@@ -136,6 +143,29 @@ class CostmapNode(Node):
         t = tfs.transform
         layer.add_scan(scan, Pose2D(t.translation.x, t.translation.y, t.rotation.yaw),
                        t.translation.z, source)
+
+    def _on_cloud(self, layer: ObstacleLayer, source: str, cloud: PointCloud2) -> None:
+        """A PointCloud2 source: points into ``global_frame``; the sensor origin is
+        ``sensor_frame``'s (Nav2), else the cloud frame's.  A cloud stamped between two
+        samples of a dynamic transform that has no newer one yet (a map-frame cloud of
+        virtual obstacles, published at any time) uses the latest transforms."""
+        frame, stamp = cloud.header.frame_id, cloud.header.stamp
+        sensor = layer.buffers[source].params.sensor_frame or frame
+        try:
+            try:
+                tf_cloud = self.tf.lookup(self.global_frame, frame, stamp)
+                at_origin = self.tf.lookup(self.global_frame, sensor, stamp)
+            except ExtrapolationError:
+                tf_cloud = self.tf.lookup(self.global_frame, frame)
+                at_origin = self.tf.lookup(self.global_frame, sensor)
+        except TransformError as exc:
+            self.tf_failed(exc)
+            return
+        origin = at_origin.transform.translation
+        matrix = transform_to_matrix(tf_cloud.transform)
+        xyz = cloud.xyz() if cloud.width * cloud.height else np.zeros((0, 3))
+        points = xyz @ matrix[:3, :3].T + matrix[:3, 3]
+        layer.add_points(points, (origin.x, origin.y, origin.z), source, stamp)
 
     def tf_failed(self, exc: Exception) -> None:
         """Count a failed TF lookup and keep its message (``last_tf_error``)."""

@@ -9,9 +9,11 @@ naming the file, the key path and the closest known name:
   Sections of the other Nav2 / ROS nodes a real Nav2 file carries (:data:`OTHER_NODES`:
   ``map_saver``, ``smoother_server``, ``docking_server``,
   ``robot_state_publisher``, lifecycle managers, ...) are accepted and ignored with a
-  note, so real Nav2 files load as they are.  Any other name is an error with a "did you
-  mean" (``controler_server``); so is a file without any section navstack runs, or an
-  empty file.
+  note, so real Nav2 files load as they are.  The sections navstack's missions read
+  (:data:`MISSION_SECTIONS`: explore_lite's ``explore_node``, the coverage search's
+  ``coverage``) are accepted without a note; the missions check them.  Any other name is
+  an error with a "did you mean" (``controler_server``); so is a file without any section
+  navstack runs, or an empty file.
 * **Server keys.**  Each run server's own keys are its params model's fields, the Nav2
   keys navstack accepts but does not use (:data:`NAV2_ONLY_KEYS`, ignored with a note),
   the ROS node keys every node has (``use_sim_time``, ``introspection_mode``, ...), and the
@@ -94,6 +96,11 @@ OTHER_NODES: frozenset[str] = frozenset({
     "scan_to_scan_filter_chain",
 })
 """Nav2 and companion node names that are recognised and ignored (with a note)."""
+
+MISSION_SECTIONS: frozenset[str] = frozenset({"explore_node", "coverage"})
+"""Sections read by the missions (``navstack.interfaces.mission_catalog``), not by the
+servers: explore_lite's node (``explore_node``, its ROS 2 parameter file's name) and the
+coverage search.  The stack passes over them; each mission checks its own section."""
 
 ROS_NODE_KEYS: frozenset[str] = frozenset({
     "use_sim_time", "introspection_mode", "service_introspection_mode",
@@ -345,6 +352,8 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
             run.append(key)
         elif is_info_server_section(key) or is_mask_server_section(key):
             filters.append(key)
+        elif key in MISSION_SECTIONS:
+            continue
         elif key in OTHER_NODES:
             ignored_nodes.append(key)
         else:

@@ -90,6 +90,9 @@ class PlannerServer(Node):
             cls = load_plugin(PLANNERS, plugin, file=file, key_path=key)
             planner = cls(cls.params_model.from_mapping(section, file=file, key_path=key))
             planner.configure(global_costmap.layered, body)
+            # stepped simulated time: wall-clock planning budgets become expansion
+            # budgets, so a seed plans the same on any machine (planning/budget.py)
+            planner.use_simulated_time(runtime.scheduler.mode == "sim")
             self.planners[pname] = planner
         self.plans_computed = 0
         self.last_path: Path | None = None

@@ -196,6 +196,16 @@ class SlamNode(Node):
         extent = self.params.map_minimum_extent
         return msg if extent is None else pad_to_extent(msg, extent)
 
+    def saved_map(self) -> OccupancyGrid | None:
+        """The map as ``save_map`` writes it: every node scan rendered at its current pose
+        (the published live map also clears with the latest scans and re-renders only
+        after a loop closure moves the graph, so it differs from this in a few cells)."""
+        if self.mapper is None or not self.mapper.nodes:
+            return None
+        with self._lock:
+            grid = self.mapper.build_map()
+        return grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
+
     def publish_map(self) -> None:
         grid = self.occupancy_grid()
         if grid is not None:

@@ -5,7 +5,8 @@ a cell of cost ``c`` costs ``step_length * (1 + cost_travel_multiplier * c / 252
 (Smac's ``Node2D::getTraversalCost``), inscribed and lethal cells are obstacles, unknown
 cells are traversable at cost 255 when ``allow_unknown`` is true.  The search stops with
 ``PlannerTimeout`` after ``max_iterations`` expansions (-1: unlimited) or
-``max_planning_time`` seconds, and checks the cancel callback every
+``max_planning_time`` seconds (on simulated time: an expansion budget,
+:mod:`navstack.planning.budget`), and checks the cancel callback every
 ``terminal_checking_interval`` expansions.  The heuristic is the octile distance, which
 is admissible because every step costs at least its length.
 
@@ -51,7 +52,11 @@ class AStarParams(Params):
     max_iterations: int = Field(1_000_000, ge=-1)
     """Expansion budget before ``PlannerTimeout``; -1 disables it."""
     max_planning_time: float = Field(2.0, gt=0.0)
-    """Time budget [s] before ``PlannerTimeout``."""
+    """Time budget [s] before ``PlannerTimeout``: wall time (Nav2), or on simulated time
+    ``max_planning_time x sim_expansion_rate`` expansions (:mod:`navstack.planning.budget`)."""
+    sim_expansion_rate: float = Field(5_000_000.0, gt=0.0)
+    """navstack: expansions that count as one second of ``max_planning_time`` on
+    simulated time (about this kernel's rate on the reference machine)."""
     cost_travel_multiplier: float = Field(2.0, ge=0.0)
     """Weight of cell cost against distance: higher keeps the path away from obstacles."""
     use_final_approach_orientation: bool = False
@@ -83,6 +88,7 @@ class CostAwareAStar(GridPlannerBase):
         self.h_scale = 1.0
         self.max_iterations = None if p.max_iterations < 0 else p.max_iterations
         self.max_planning_time = p.max_planning_time
+        self.sim_expansion_rate = p.sim_expansion_rate
         self.chunk = p.terminal_checking_interval
         self._table = smac2d_cost_table(p.cost_travel_multiplier, p.allow_unknown)
 

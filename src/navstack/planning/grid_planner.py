@@ -35,6 +35,7 @@ from navstack.core.interfaces import CancelFn, GlobalPlanner
 from navstack.core.msgs import Path, Pose2D
 from navstack.core.params import Params
 from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
+from navstack.planning.budget import PlanningBudget
 from navstack.planning.grid_search import FOUND, RUNNING, GridSearchWorkspace
 from navstack.planning.path_utils import cells_to_world, make_path
 
@@ -60,6 +61,8 @@ class GridPlannerBase(GlobalPlanner):
     h_scale: float = 1.0
     max_iterations: int | None = None
     max_planning_time: float | None = None
+    sim_expansion_rate: float = 5_000_000.0
+    """Expansions per second of ``max_planning_time`` on simulated time."""
     chunk: int = 5000
 
     @abstractmethod
@@ -165,6 +168,10 @@ class GridPlannerBase(GlobalPlanner):
                 cancel: CancelFn | None, t0: float) -> int:
         what = f"planning from start {fmt_xy(start)} to goal {fmt_xy(goal)}"
         limit = self.max_iterations
+        clock = PlanningBudget(self.max_planning_time, self.sim_expansion_rate,
+                               self.simulated_time)
+        clock.restart(t0)
+        sim_cap = clock.max_expansions  # simulated time: stop at exactly this many
         while True:
             if cancel is not None and cancel():
                 raise PlannerCancelled(f"{what} was cancelled after {ws.expansions} expansions")
@@ -173,15 +180,17 @@ class GridPlannerBase(GlobalPlanner):
                 raise PlannerTimeout(
                     f"{what} exceeded max_iterations {limit} ({ws.expansions} cells expanded "
                     f"without reaching the goal); raise max_iterations or set it to -1")
+            if sim_cap is not None:
+                if sim_cap - ws.expansions <= 0:
+                    raise PlannerTimeout(f"{what} exceeded {clock.describe(ws.expansions)}; "
+                                         f"raise max_planning_time")
+                budget = min(budget, sim_cap - ws.expansions)
             status = ws.step(self.h_scale, budget)
             if status != RUNNING:
                 return status
-            elapsed = time.perf_counter() - t0
-            if self.max_planning_time is not None and elapsed > self.max_planning_time:
-                raise PlannerTimeout(
-                    f"{what} exceeded max_planning_time {self.max_planning_time:.3f} s "
-                    f"({ws.expansions} cells expanded in {elapsed:.3f} s); raise "
-                    f"max_planning_time")
+            if sim_cap is None and clock.exceeded(ws.expansions):
+                raise PlannerTimeout(f"{what} exceeded {clock.describe(ws.expansions)}; "
+                                     f"raise max_planning_time")
 
     def path_points(self, ws: GridSearchWorkspace, start: tuple[int, int],
                     end: tuple[int, int], free: NDArray[np.bool_], weight: NDArray[np.float64],

@@ -81,6 +81,12 @@ class GoalHandle(Generic[G]):
     def canceled(self, result: Any = None, reason: str = "canceled on request") -> None:
         self._finish(ActionResult(GoalStatus.CANCELED, 0, reason, result))
 
+    def finish(self, result: ActionResult) -> None:
+        """End the goal with a complete result (a proxy relaying a remote server's)."""
+        if result.status is GoalStatus.FAILED and not result.error_msg:
+            raise BusError(f"action '{self.action}': a failed goal needs a reason")
+        self._finish(result)
+
     def _finish(self, result: ActionResult) -> None:
         if self.status.terminal:
             return

@@ -11,6 +11,9 @@ A *stack file* describes one running system::
     world: {name: office, perfect_localization: true}
     sim: {duration: 60.0, rate: null}
     navigation: nav2_params.yaml  # Nav2 parameter file (or inline Nav2 layout)
+    transport:                    # optional: robot / base split over Zenoh (issue 21)
+      robot: {kind: zenoh, listen: ["tcp/127.0.0.1:7447"], peers: [base]}
+      base: {kind: zenoh, connect: ["tcp/127.0.0.1:7447"], peers: [robot]}
 
 Navigation parameters are read in Nav2's own layout (``controller_server:
 ros__parameters: ...``), so existing Nav2 parameter files load unchanged.
@@ -26,6 +29,7 @@ from pydantic import Field
 from navstack.core.config_files import ROS_PARAMETERS, load_yaml, ros_parameters
 from navstack.core.errors import ConfigError
 from navstack.core.params import Params
+from navstack.runtime.transports.config import TransportSection
 
 __all__ = ["ROS_PARAMETERS", "StackConfig", "load_stack", "load_yaml", "ros_parameters"]
 
@@ -55,6 +59,9 @@ class StackConfig(Params):
     world: WorldSection = WorldSection()
     sim: SimSection = SimSection()
     navigation: str | dict[str, Any] = Field(default_factory=dict)
+    #: per process name (``robot``, ``base``, ``robot1``...): how it joins the others
+    #: (:mod:`navstack.runtime.transports.config`); empty = one process, in-process bus
+    transport: dict[str, TransportSection] = Field(default_factory=dict)
     source_file: str = ""
 
     def navigation_file(self) -> Path | None:
@@ -78,7 +85,7 @@ class StackConfig(Params):
         return dict(self.navigation)
 
 
-STACK_KEYS = ("name", "seed", "robot", "world", "sim", "navigation")
+STACK_KEYS = ("name", "seed", "robot", "world", "sim", "navigation", "transport")
 
 
 def load_stack(path: str | Path) -> StackConfig:

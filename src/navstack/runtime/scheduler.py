@@ -11,7 +11,9 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
+import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -81,23 +83,48 @@ class Timer:
 class Scheduler:
     """Priority queue of ``(time, seq)`` events driven by a simulated or a wall clock.
 
-    ``rate`` (sim mode only) throttles simulated time to ``rate`` x real time; ``None``
-    runs as fast as possible.
+    ``rate`` (sim mode) throttles simulated time to ``rate`` x real time; ``None`` runs
+    as fast as possible.  In ``wall`` mode the clock reads
+    ``clock_offset + epoch + rate * (time.time() - epoch)`` (``rate`` default 1: the
+    system clock plus ``clock_offset``), so processes that share ``epoch`` and ``rate``
+    share one time base up to their offsets -- an accelerated wall clock lets split
+    stacks run faster than real time in tests; ``clock_offset`` simulates a robot whose
+    clock is wrong (issue 21).
+
+    Other threads (network transports) hand work to the loop with :meth:`post`; it runs
+    at the clock's current reading, and a loop waiting for its next event wakes for it.
     """
 
+    #: default ``epoch`` of an accelerated wall clock (2026-01-01T00:00:00Z)
+    EPOCH = 1_767_225_600.0
+
     def __init__(self, mode: ClockMode = "sim", start_time: float = 0.0,
-                 rate: float | None = None) -> None:
+                 rate: float | None = None, *, clock_offset: float = 0.0,
+                 epoch: float = EPOCH) -> None:
         if mode not in ("sim", "wall"):
             raise ValueError(f"clock mode must be 'sim' or 'wall', got {mode!r}")
+        if rate is not None and not (rate > 0.0 and math.isfinite(rate)):
+            raise ValueError(f"clock rate must be a positive finite number, got {rate}")
         self.mode: ClockMode = mode
         self.rate = rate
+        self.clock_offset = clock_offset
+        self.epoch = epoch
         self._queue: list[tuple[float, int, _Event]] = []
         self._seq = itertools.count()
         self._stopped = False
         self.events_run = 0
+        self._inbox: deque[tuple[Callable[..., Any], tuple[Any, ...]]] = deque()
+        #: wall/throttled modes: how late [real s] each event ran, when set to a deque
+        self.lateness: deque[float] | None = None
+        #: lockstep with other processes (:mod:`navstack.runtime.transports.lockstep`):
+        #: no event later than ``horizon()`` runs; ``on_blocked()`` is called while the
+        #: loop waits for the horizon to move (posted work still runs meanwhile)
+        self.horizon: Callable[[], float] | None = None
+        self.on_blocked: Callable[[], None] | None = None
+        self._wake = threading.Event()
         if mode == "wall":
             self._wall0 = time.monotonic()
-            self._t0 = time.time() if start_time == 0.0 else start_time
+            self._t0 = self.clock() if start_time == 0.0 else start_time
             self._now = self._t0
         else:
             self._now = start_time
@@ -110,12 +137,64 @@ class Scheduler:
         """Current time [s]: simulated time, or wall time in ``wall`` mode."""
         return self._now
 
+    def clock(self) -> float:
+        """The clock's reading right now, from any thread (wall mode: the scaled system
+        clock plus offset; sim mode: ``now``)."""
+        if self.mode != "wall":
+            return self._now
+        rate = self.rate or 1.0
+        return self.clock_offset + self.epoch + rate * (time.time() - self.epoch)
+
     def _wall_time_for(self, t: float) -> float | None:
         if self.mode == "wall":
-            return self._wall0 + (t - self._t0)
+            return self._wall0 + (t - self._t0) / (self.rate or 1.0)
         if self.rate:
             return self._wall0 + (t - self._t0) / self.rate
         return None
+
+    # --- other threads -------------------------------------------------------------
+    def post(self, fn: Callable[..., Any], *args: Any) -> None:
+        """Thread-safe: run ``fn(*args)`` in the loop as soon as possible (at the
+        clock's reading when the loop picks it up)."""
+        self._inbox.append((fn, args))
+        self._wake.set()
+
+    def _drain_inbox(self) -> None:
+        self._wake.clear()
+        inbox = self._inbox
+        if not inbox:
+            return
+        if self.mode == "wall":
+            self._now = max(self._now, self.clock())
+        while inbox:
+            fn, args = inbox.popleft()
+            self.call_at(self._now, fn, *args)
+
+    def _wait_for_horizon(self) -> None:
+        """Blocked by the horizon: tell the peers, run posted work, wait to be woken."""
+        if self.on_blocked is not None:
+            self.on_blocked()
+        if self._inbox:
+            self._drain_inbox()
+            return
+        self._wake.wait(0.05)
+        if self._inbox:
+            self._drain_inbox()
+
+    def wake(self) -> None:
+        """Thread-safe: make a waiting loop look again (its horizon moved)."""
+        self._wake.set()
+
+    def _sleep_until(self, wall: float) -> bool:
+        """Sleep until monotonic time ``wall``; ``True`` if posted work woke us first."""
+        while True:
+            if self._inbox:
+                self._drain_inbox()
+                return True
+            delay = wall - time.monotonic()
+            if delay <= 0:
+                return False
+            self._wake.wait(delay)
 
     # --- scheduling ------------------------------------------------------------
     def call_at(self, t: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
@@ -143,16 +222,23 @@ class Scheduler:
 
     def step(self) -> bool:
         """Run the next event; ``False`` if there is none."""
-        while self._queue:
-            ev = heapq.heappop(self._queue)[2]
-            if ev.cancelled:
+        if self._inbox:
+            self._drain_inbox()
+        queue = self._queue
+        while queue:
+            if queue[0][2].cancelled:
+                heapq.heappop(queue)
                 continue
-            wall = self._wall_time_for(ev.time)
-            if wall is not None:
-                delay = wall - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-            self._now = ev.time
+            if self.horizon is not None and queue[0][0] > self.horizon():
+                self._wait_for_horizon()
+                continue
+            wall = self._wall_time_for(queue[0][0])
+            if wall is not None and self._sleep_until(wall):
+                continue  # posted work arrived: it may now be the earliest event
+            ev = heapq.heappop(queue)[2]
+            if wall is not None and self.lateness is not None:
+                self.lateness.append(time.monotonic() - wall)
+            self._now = max(self._now, ev.time)
             self.events_run += 1
             ev.fn(*ev.args)
             return True
@@ -171,16 +257,16 @@ class Scheduler:
                 return True
             if self._stopped:
                 return True
+            if self._inbox:
+                self._drain_inbox()
             while queue and queue[0][2].cancelled:
                 heapq.heappop(queue)
-            if not queue or queue[0][0] > t_end:
+            if queue and queue[0][0] <= t_end:
+                self.step()
+                continue
+            wall = self._wall_time_for(t_end)
+            if wall is None or not math.isfinite(t_end) or not self._sleep_until(wall):
                 break
-            self.step()
-        wall = self._wall_time_for(t_end)
-        if wall is not None and math.isfinite(t_end):
-            delay = wall - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
         if math.isfinite(t_end):
             self._now = max(self._now, t_end)
         return False

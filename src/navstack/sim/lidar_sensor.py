@@ -96,8 +96,9 @@ class LidarModel:
         if p.scan_dropout_prob > 0.0 and rng.random() < p.scan_dropout_prob:
             return None
         out = r + p.bias  # always a fresh array; inf stays inf
-        if p.noise_std > 0.0:
-            out += p.noise_std * rng.standard_normal(self.n_beams)
+        if p.noise_std > 0.0 or p.noise_std_per_m > 0.0:
+            std = p.noise_std + p.noise_std_per_m * np.where(np.isfinite(r), r, 0.0)
+            out += std * rng.standard_normal(self.n_beams)
         out[out < self.range_min] = -np.inf
         out[out > self.range_max] = np.inf
         if p.dropout_prob > 0.0:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import yaml
@@ -65,7 +65,9 @@ class LidarParams(Params):
 
     ``beams`` rays from ``angle_min`` to ``angle_max`` (sensor frame, CCW).  For a full
     circle (span 2*pi) the last ray stops one increment short of ``angle_max`` so no
-    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range,
+    direction is sampled twice.  ``noise_std``/``bias`` [m] perturb each range; the
+    noise standard deviation grows with range as ``noise_std + noise_std_per_m * r`` (a
+    triangulation lidar such as the LDS-01 is specified in percent of the range).
     ``dropout_prob`` loses single beams (reported as +inf, no return) and
     ``scan_dropout_prob`` whole scans (nothing published).
     """
@@ -83,6 +85,7 @@ class LidarParams(Params):
     range_min: float = Field(default=0.12, ge=0.0)
     range_max: float = Field(default=12.0, gt=0.0)
     noise_std: float = Field(default=0.0, ge=0.0)
+    noise_std_per_m: float = Field(default=0.0, ge=0.0)
     bias: float = 0.0
     dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
     scan_dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
@@ -180,6 +183,73 @@ class ImuParams(Params):
     accel_noise_std: float = Field(default=0.0, ge=0.0)
     accel_bias: Vec3 = (0.0, 0.0, 0.0)
     dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+
+
+class CameraParams(Params):
+    """A level forward pinhole camera (sensor_msgs/Image + CameraInfo).
+
+    ``width`` x ``height`` pixels over ``horizontal_fov`` [rad] (square pixels: fx = fy =
+    (width / 2) / tan(horizontal_fov / 2), principal point at the image centre), at
+    ``rate_hz``, mounted at ``mount`` (``frame_id``, x forward; the image is in
+    ``optical_frame_id``, default ``<frame_id>_optical``: z forward, x right, y down).
+    ``distortion`` is plumb_bob (k1, k2, p1, p2, k3), applied to the rendered image.
+
+    ``mode``: ``image`` renders grey images (``encoding`` mono8 or bgr8) on ``topic``;
+    ``corners`` publishes only the projected corners of the visible markers plus
+    ``corner_noise_std`` [px] Gaussian noise (fiducial_msgs/FiducialArray on
+    ``corners_topic``), a cheap stand-in for image + detector in fast tests.  Corners mode
+    reports markers up to ``max_range`` [m] whose sides are at least
+    ``min_marker_pixels`` long; images show everything and leave it to the detector.
+    ``pixel_noise_std`` [grey levels] is per-pixel Gaussian noise; ``oversample`` the
+    supersampling factor of marker rendering (anti-aliasing, 1 = off);
+    ``motion_blur`` smears the image by the rotation during ``exposure_time`` [s].
+    """
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    topic: str = "camera/image_raw"
+    info_topic: str = "camera/camera_info"
+    corners_topic: str = "fiducial_vertices"
+    frame_id: str = "camera_link"
+    optical_frame_id: str = ""
+    mount: MountParams = Field(default_factory=MountParams)
+    rate_hz: float = Field(default=30.0, gt=0.0)
+    width: int = Field(default=640, ge=16, le=4096)
+    height: int = Field(default=480, ge=16, le=4096)
+    horizontal_fov: float = Field(default=1.047, gt=0.0, lt=math.pi)
+    max_range: float = Field(default=3.0, gt=0.0)
+    mode: Literal["image", "corners"] = "image"
+    encoding: Literal["mono8", "bgr8"] = "mono8"
+    distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    pixel_noise_std: float = Field(default=0.0, ge=0.0, le=64.0)
+    corner_noise_std: float = Field(default=0.0, ge=0.0)
+    min_marker_pixels: float = Field(default=10.0, ge=0.0)
+    oversample: int = Field(default=4, ge=1, le=8)
+    motion_blur: bool = False
+    exposure_time: float = Field(default=0.01, ge=0.0, le=1.0)
+
+    @property
+    def optical_frame(self) -> str:
+        """The frame of the images (``optical_frame_id`` or ``<frame_id>_optical``)."""
+        return self.optical_frame_id or f"{self.frame_id}_optical"
+
+
+class GripperParams(Params):
+    """A front gripper that lifts a package (TurtleBot course: a servo gripper with a
+    magnet brace).  Closing attaches the package whose centre lies in the reach zone:
+    ``reach_min`` .. ``reach_max`` [m] ahead of the footprint's front edge and within
+    ``half_width`` [m] of the centre line; the package is then carried (lifted, not
+    dragged) until the gripper opens.  ``close_time`` [s] is how long closing takes (the
+    course's servo ramp: 20 steps of 0.1 s)."""
+
+    model_config = _FINITE
+
+    enabled: bool = False
+    reach_min: float = Field(default=-0.02, ge=-0.5, le=1.0)
+    reach_max: float = Field(default=0.12, gt=-0.5, le=1.0)
+    half_width: float = Field(default=0.08, gt=0.0, le=1.0)
+    close_time: float = Field(default=2.0, ge=0.0)
 
 
 class GroundTruthParams(Params):
@@ -282,7 +352,7 @@ class MagnetometerParams(Params):
 class SensorsParams(Params):
     """The robot's sensor suite; each sensor can be switched off with ``enabled: false``.
 
-    ``gnss`` and ``magnetometer`` are off unless a profile enables them;
+    ``gnss``, ``magnetometer`` and ``camera`` are off unless a profile enables them;
     ``georeference`` places the world on the Earth for both.
     """
 
@@ -290,6 +360,7 @@ class SensorsParams(Params):
     lidar3d: Lidar3dParams = Field(default_factory=Lidar3dParams)
     odometry: OdometryParams = Field(default_factory=OdometryParams)
     imu: ImuParams = Field(default_factory=ImuParams)
+    camera: CameraParams = Field(default_factory=CameraParams)
     ground_truth: GroundTruthParams = Field(default_factory=GroundTruthParams)
     gnss: GnssParams = Field(default_factory=GnssParams)
     magnetometer: MagnetometerParams = Field(default_factory=MagnetometerParams)
@@ -314,6 +385,7 @@ class RobotParams(Params):
     robot_radius: float = Field(default=0.1, gt=0.0)
     footprint_padding: float = Field(default=0.01, ge=0.0)
     sensors: SensorsParams = Field(default_factory=SensorsParams)
+    gripper: GripperParams = Field(default_factory=GripperParams)
 
     @field_validator("footprint", mode="before")
     @classmethod

@@ -43,6 +43,7 @@ from navstack.sim.collision import footprint_collides
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, make_model
 from navstack.sim.lidar3d import Lidar3dModel, cast_cloud
+from navstack.sim.packages import PackageWorld
 from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
 from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel
@@ -109,6 +110,8 @@ class Simulator:
         self.heights: NDArray[np.float64] | None = None
         """Per-cell obstacle heights [m] for the 3-D lidar (default: uniform)."""
         self.distance_travelled = 0.0
+        # marked packages on the floor and the gripper (sim/packages.py)
+        self.packages = PackageWorld(world.packages, robot.gripper, self._fp_local)
 
     # --- commands ------------------------------------------------------------------
     def set_command(self, cmd: Twist2D, now: float) -> bool:
@@ -146,7 +149,7 @@ class Simulator:
         if self.obstacle_clocks:
             self._advance_obstacles(dt)
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
-        if moved and self._collides(new):
+        if moved and (self._collides(new) or self._touches_package(new)):
             if self.time - self._last_contact_t > self.contact_release_s:
                 self.collisions += 1
             self._last_contact_t = self.time
@@ -156,6 +159,15 @@ class Simulator:
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step
             self.odometry.integrate(new, dt, self.rng)
+        if self.packages.specs:
+            self.packages.update(self.pose, self.time)
+
+    def _touches_package(self, state: RobotState) -> bool:
+        """Footprint contact with a package on the floor (counted per package)."""
+        if not self.packages.specs:
+            return False
+        return self.packages.contact(self._footprint_at(state),
+                                     Pose2D(state.x, state.y, state.yaw), self.time)
 
     def _advance_obstacles(self, dt: float) -> None:
         """Advance each obstacle's clock unless that step would close in on the robot.

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from navstack.core.errors import SimulationError
 from navstack.core.msgs import Header, MapMetaData, OccupancyGrid, Point, Pose, Pose2D
 from navstack.core.polygon import points_in_polygon
+from navstack.sim.markers import PackageSpec, WorldMarker
 
 FloatArray = NDArray[np.float64]
 MovingTime = float | tuple[float, ...]
@@ -117,7 +118,7 @@ class MovingObstacle:
 
 @dataclass(eq=False)
 class World:
-    """Static grid + moving obstacles + named places.
+    """Static grid + moving obstacles + named places (+ markers and packages for cameras).
 
     ``occupied`` is ``bool[H, W]`` with row 0 at ``origin_y`` (lowest y); cell ``(r, c)``
     covers ``[origin_x + c*res, origin_x + (c+1)*res) x [origin_y + r*res, ...)``.
@@ -132,6 +133,12 @@ class World:
     spawn: Pose2D = field(default_factory=Pose2D)
     waypoints: dict[str, Pose2D] = field(default_factory=dict)
     source: Path | None = None
+    markers: tuple[WorldMarker, ...] = ()
+    """Fiducial markers on walls and obstacles (:mod:`navstack.sim.markers`)."""
+    packages: tuple[PackageSpec, ...] = ()
+    """Marked boxes on the floor, below the lidar plane (initial placement)."""
+    wall_height: float = 2.0
+    """Height [m] of every occupied cell as the camera sees it (a 2.5-D world)."""
     _distance: FloatArray | None = field(default=None, init=False, repr=False)
     _moving_cache: tuple[MovingTime, FloatArray, FloatArray] | None = field(
         default=None, init=False, repr=False)

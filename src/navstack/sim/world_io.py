@@ -4,7 +4,8 @@ Two formats are read:
 
 * a **primitives YAML** (``name``, ``resolution``, ``size``, ``origin``, ``boundary``,
   ``walls``, ``boxes``, ``circles``, ``polygons``, ``moving_obstacles``, ``spawn``,
-  ``waypoints``) validated by :class:`WorldSpec` and rasterised with numpy;
+  ``waypoints``; for cameras ``wall_height``, ``marker_dictionary``, ``markers``,
+  ``packages``) validated by :class:`WorldSpec` and rasterised with numpy;
 * a **ROS map_server YAML** (it has an ``image`` key) read by
   :func:`navstack.core.map_files.load_map`; cells of value 100 are obstacles, unknown
   counts as free.  Optional extra keys ``name``, ``spawn`` and ``waypoints`` (ignored by
@@ -39,6 +40,7 @@ from navstack.core.map_files import load_map, load_map_yaml
 from navstack.core.msgs import Pose2D
 from navstack.core.params import Params
 from navstack.core.polygon import points_in_polygon
+from navstack.sim.markers import PackageSpec, WorldMarker
 from navstack.sim.world import BoolArray, FloatArray, MovingObstacle, World
 
 Vec2 = tuple[float, float]
@@ -87,6 +89,34 @@ class MovingObstacleSpec(Params):
     phase: float = Field(default=0.0, ge=0.0)
 
 
+class MarkerSpec(Params):
+    """An ArUco marker on a wall or obstacle face (:class:`navstack.sim.markers.WorldMarker`):
+    ``position`` of its centre [m] on the face, ``height`` of the centre above the floor,
+    ``yaw`` the direction it faces (out of the surface), ``size`` the black square's side,
+    ``margin`` the white quiet zone around it (default one marker cell)."""
+
+    id: int = Field(ge=0)
+    size: float
+    position: Vec2
+    height: float = Field(default=0.5, gt=0.0)
+    yaw: float = 0.0
+    dictionary: str | None = None
+    margin: float | None = Field(default=None, ge=0.0)
+
+
+class PackageSpecModel(Params):
+    """A marked package on the floor (:class:`navstack.sim.markers.PackageSpec`); the
+    TurtleBot course's packages are 10 x 5 x 5 cm with 5 cm markers."""
+
+    id: int = Field(ge=0)
+    name: str = ""
+    position: Vec2
+    yaw: float = 0.0
+    size: tuple[float, float, float] = (0.10, 0.05, 0.05)
+    marker_size: float = 0.05
+    dictionary: str | None = None
+
+
 class SpawnSpec(Params):
     x: float = 0.0
     y: float = 0.0
@@ -111,6 +141,10 @@ class WorldSpec(Params):
     spawn: SpawnSpec = Field(default_factory=SpawnSpec)
     waypoints: dict[str, tuple[float, float, float] | tuple[float, float]] = Field(
         default_factory=dict)
+    wall_height: float = Field(default=2.0, gt=0.0)
+    marker_dictionary: str = "DICT_4X4_50"
+    markers: list[MarkerSpec] = Field(default_factory=list)
+    packages: list[PackageSpecModel] = Field(default_factory=list)
 
 
 class MapWorldExtras(Params):
@@ -289,9 +323,73 @@ def world_from_spec(spec: WorldSpec, file: str = "", source: Path | None = None)
         for i, m in enumerate(spec.moving_obstacles))
     world = World(rasterize(spec), spec.resolution, spec.origin[0], spec.origin[1], spec.name,
                   moving, Pose2D(spec.spawn.x, spec.spawn.y, spec.spawn.yaw),
-                  {k: _pose(v) for k, v in spec.waypoints.items()}, source)
+                  {k: _pose(v) for k, v in spec.waypoints.items()}, source,
+                  wall_height=spec.wall_height)
+    if spec.markers or spec.packages:
+        world.markers, world.packages = build_markers(spec, file)
     _check_places(world, file)
+    for i, package in enumerate(world.packages):
+        if not world.is_free(package.x, package.y):
+            raise ConfigError(f"package at ({package.x}, {package.y}) is inside an obstacle",
+                              file=file, key_path=f"packages[{i}].position",
+                              suggestion="move it to free space")
     return world
+
+
+def build_markers(spec: WorldSpec, file: str = ""
+                  ) -> tuple[tuple[WorldMarker, ...], tuple[PackageSpec, ...]]:
+    """The validated markers and packages of ``spec``: known dictionary, id in it, one
+    marker per (dictionary, id), positive sizes, markers between floor and wall top."""
+    from navstack.core.aruco_dictionaries import (
+        check_dictionary_name,
+        check_marker_id,
+        get_dictionary,
+    )
+
+    default = check_dictionary_name(spec.marker_dictionary, "marker_dictionary", file)
+    seen: dict[tuple[str, int], str] = {}
+
+    def claim(dictionary: str, marker_id: int, key: str) -> None:
+        check_marker_id(dictionary, marker_id, f"{key}.id", file)
+        if (dictionary, marker_id) in seen:
+            raise ConfigError(f"marker {marker_id} of {dictionary} is already used by "
+                              f"{seen[dictionary, marker_id]}", file=file, key_path=key,
+                              suggestion="give every marker its own id")
+        seen[dictionary, marker_id] = key
+
+    markers = []
+    for i, m in enumerate(spec.markers):
+        key = f"markers[{i}]"
+        name = (check_dictionary_name(m.dictionary, f"{key}.dictionary", file)
+                if m.dictionary else default)
+        if not m.size > 0.0:
+            raise ConfigError(f"marker size must be > 0 m, got {m.size}", file=file,
+                              key_path=f"{key}.size", suggestion="the black square's side")
+        if m.height - 0.5 * m.size < 0.0 or m.height + 0.5 * m.size > spec.wall_height:
+            raise ConfigError(f"a {m.size} m marker centred at height {m.height} m does not "
+                              f"fit between the floor and the wall top ({spec.wall_height} m)",
+                              file=file, key_path=f"{key}.height")
+        claim(name, m.id, key)
+        cells = int(get_dictionary(name).markerSize) + 2
+        margin = m.size / cells if m.margin is None else m.margin
+        markers.append(WorldMarker(m.id, name, m.size, m.position[0], m.position[1], m.height,
+                                   m.yaw, margin))
+    packages = []
+    for i, p in enumerate(spec.packages):
+        key = f"packages[{i}]"
+        name = (check_dictionary_name(p.dictionary, f"{key}.dictionary", file)
+                if p.dictionary else default)
+        if min(p.size) <= 0.0 or not p.marker_size > 0.0:
+            raise ConfigError(f"package size {list(p.size)} and marker_size {p.marker_size} "
+                              "must be > 0 m", file=file, key_path=key)
+        if p.marker_size > p.size[2] + 1e-9 or p.marker_size > max(p.size[:2]) + 1e-9:
+            raise ConfigError(f"a {p.marker_size} m marker does not fit on any face of a "
+                              f"{list(p.size)} m package", file=file,
+                              key_path=f"{key}.marker_size")
+        claim(name, p.id, key)
+        packages.append(PackageSpec(p.name or f"package_{p.id}", p.id, name, p.position[0],
+                                    p.position[1], p.yaw, p.size, p.marker_size))
+    return tuple(markers), tuple(packages)
 
 
 def world_from_mapping(data: dict[str, Any], file: str = "",
@@ -355,6 +453,7 @@ def load_world_file(path: str | Path) -> World:
     return world_from_mapping(doc, str(p), p)
 
 
-__all__ = ["BoxSpec", "CircleSpec", "MovingObstacleSpec", "PolygonSpec",
+__all__ = ["BoxSpec", "CircleSpec", "MarkerSpec", "MovingObstacleSpec", "PackageSpecModel",
+           "PolygonSpec",
            "SpawnSpec", "WallSpec", "WorldSpec", "box_polygon", "load_world_file",
            "rasterize", "world_from_map_file", "world_from_mapping", "world_from_spec"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar, TypeVar
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import field_validator
@@ -30,7 +31,12 @@ from navstack.control.dwb.critic_base import (
     register_critic,
     reject_scores,
 )
-from navstack.control.dwb.grid import Wavefront, adjust_plan_resolution, world_to_cells
+from navstack.control.dwb.grid import (
+    Wavefront,
+    adjust_plan_resolution,
+    plan_run_end,
+    world_to_cells,
+)
 from navstack.control.dwb.params import DWBParams
 from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.msgs import Pose2D
@@ -140,9 +146,21 @@ class MapGridCritic(TrajectoryCritic[G]):
                costmap: Costmap2D) -> tuple[IntArray, IntArray, NDArray[np.bool_]]:
         last_only = self._last_only()
         if self.forward_point or last_only:
-            xs, ys = self._points(batch, last_only)
-            return world_to_cells(costmap, xs, ys)
+            # cached per batch (and carried into sub-batches): PathAlign and GoalAlign
+            # score the same nose points, in prepare and in score
+            key = f"cells:{type(self)._points.__qualname__}:{last_only}:{self._point_key()}"
+            cached = batch.cache.get(key)
+            if cached is None:
+                xs, ys = self._points(batch, last_only)
+                cached = world_to_cells(costmap, xs, ys)
+                batch.cache[key] = cached
+            mx, my, inside = cached
+            return mx, my, inside
         return batch_cells(batch, costmap)
+
+    def _point_key(self) -> float:
+        """What besides the batch decides :meth:`_points` (the nose distance)."""
+        return 0.0
 
     def _set_values(self, ctx: CriticContext, seed_x: IntArray, seed_y: IntArray) -> None:
         """Run the wave from the seeds, up to the cells the cycle's trajectories touch."""
@@ -153,8 +171,8 @@ class MapGridCritic(TrajectoryCritic[G]):
         if ctx.batch is not None:
             mx, my, inside = self._cells(ctx.batch, ctx.costmap)
             need = np.zeros(data.shape, dtype=np.bool_)
-            need[my[inside], mx[inside]] = True
-            need &= data < INSCRIBED_INFLATED_OBSTACLE
+            _mark_needed(data, mx.reshape(-1), my.reshape(-1), inside.reshape(-1),
+                         INSCRIBED_INFLATED_OBSTACLE, need)
         self.values = self._wave.compute(data, seed_x, seed_y, True, need)
 
     def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
@@ -162,6 +180,15 @@ class MapGridCritic(TrajectoryCritic[G]):
             self._set_values(ctx, np.zeros(0, np.int64), np.zeros(0, np.int64))
         assert self.values is not None
         mx, my, inside = self._cells(batch, ctx.costmap)
+        if self.params.aggregation_type == "last":
+            scores = np.empty(len(batch))
+            last = (np.zeros(len(batch), np.int64) if self._last_only()
+                    else batch.lengths - 1)
+            _last_scores(self.values, ctx.costmap.data, mx, my, inside,
+                         blocking_cost(ctx.costmap, ctx.pose), self.obstacle_score,
+                         self.unreachable_score, self.stop_on_failure,
+                         np.ascontiguousarray(last, dtype=np.int64), scores)
+            return scores
         blocked = ctx.costmap.data[my, mx] >= blocking_cost(ctx.costmap, ctx.pose)
         vals = np.where(blocked, self.obstacle_score, self.values[my, mx])
         codes = np.where(inside, 0, 1)
@@ -179,6 +206,47 @@ class MapGridCritic(TrajectoryCritic[G]):
         else:
             scores = np.where(batch.valid_mask(), vals, 1.0).prod(axis=1)
         return reject_scores(scores, first_failure(codes))
+
+
+@numba.njit(cache=True)
+def _mark_needed(data: NDArray[np.uint8], mx: IntArray, my: IntArray,
+                 inside: NDArray[np.bool_], below: int, need: NDArray[np.bool_]) -> None:
+    """``need[my, mx] = True`` for the cells on the grid whose cost is below ``below``."""
+    for i in range(mx.shape[0]):
+        if inside[i] and data[my[i], mx[i]] < below:
+            need[my[i], mx[i]] = True
+
+
+@numba.njit(cache=True)
+def _last_scores(values: FloatArray, data: NDArray[np.uint8], mx: IntArray, my: IntArray,
+                 inside: NDArray[np.bool_], blocking: int, obstacle: float,
+                 unreachable: float, stop_on_failure: bool, last: IntArray,
+                 out: FloatArray) -> None:
+    """``aggregation_type: last`` scoring in one pass (same result as the numpy path).
+
+    A pose's value is ``obstacle`` on a blocking cell, else the distance map's; the
+    first failing pose (off grid 1, then with ``stop_on_failure`` obstacle 2 or
+    unreachable 3) rejects the sample with ``-code``, else the score is the value at
+    pose ``last[i]``.
+    """
+    n, t = mx.shape
+    for i in range(n):
+        code = 0
+        score = 0.0
+        for k in range(t):
+            x, y = mx[i, k], my[i, k]
+            v = obstacle if data[y, x] >= blocking else values[y, x]
+            if code == 0:
+                if not inside[i, k]:
+                    code = 1
+                elif stop_on_failure:
+                    if v == obstacle:
+                        code = 2
+                    elif v == unreachable:
+                        code = 3
+            if k == last[i]:
+                score = v
+        out[i] = -float(code) if code > 0 else score
 
 
 @register_critic("PathDist")
@@ -208,9 +276,17 @@ class GoalDistCritic(MapGridCritic[MapGridParams]):
     default_scale = 24.0
 
     def _prepare_goal(self, ctx: CriticContext, plan: FloatArray) -> bool:
-        run_x, run_y = plan_run_cells(plan, ctx.costmap,
-                                      ctx.cache if plan is ctx.plan else None)
-        self._set_values(ctx, run_x[-1:], run_y[-1:])
+        if plan is ctx.plan:
+            run_x, run_y = plan_run_cells(plan, ctx.costmap, ctx.cache)
+            run_x, run_y = run_x[-1:], run_y[-1:]
+        else:  # only the run's last cell is needed: no dense plan is built
+            cm = ctx.costmap
+            found, ex, ey = plan_run_end(np.ascontiguousarray(plan, dtype=np.float64),
+                                         cm.resolution, cm.origin_x, cm.origin_y, cm.data,
+                                         NO_INFORMATION)
+            run_x = np.array([ex] if found else [], dtype=np.int64)
+            run_y = np.array([ey] if found else [], dtype=np.int64)
+        self._set_values(ctx, run_x, run_y)
         return len(run_x) > 0
 
     def prepare(self, ctx: CriticContext) -> bool:
@@ -230,6 +306,9 @@ class _AlignMixin:
         d = self.params.forward_point_distance
         return (poses[..., 0] + d * np.cos(poses[..., 2]),
                 poses[..., 1] + d * np.sin(poses[..., 2]))
+
+    def _point_key(self) -> float:
+        return float(self.params.forward_point_distance)
 
     def _near_goal(self, ctx: CriticContext) -> bool:
         d = self.params.forward_point_distance

@@ -8,7 +8,9 @@ over all its poses (``sum_scores: true``).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import Field
 
 from navstack.control.dwb.critic_base import (
@@ -28,6 +30,8 @@ from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.errors import ConfigError
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+
+IntArray = NDArray[np.int64]
 
 
 class ObstacleParams(CriticParams):
@@ -49,6 +53,29 @@ def _aggregate(costs: FloatArray, batch: TrajectoryBatch, sum_scores: bool) -> F
     return costs[np.arange(len(batch)), batch.lengths - 1]
 
 
+@numba.njit(cache=True)
+def _base_last_scores(data: NDArray[np.uint8], mx: IntArray, my: IntArray,
+                      inside: NDArray[np.bool_], limit: int, last: IntArray,
+                      out: FloatArray) -> None:
+    """BaseObstacle with ``sum_scores: false`` in one pass: ``-code`` of the first bad
+    pose (off grid 1, unknown 3, cost >= ``limit`` 2), else the cost at pose ``last[i]``."""
+    n, t = mx.shape
+    for i in range(n):
+        code = 0
+        for k in range(t):
+            if not inside[i, k]:
+                code = 1
+            else:
+                c = data[my[i, k], mx[i, k]]
+                if c == NO_INFORMATION:
+                    code = 3
+                elif c >= limit:
+                    code = 2
+            if code:
+                break
+        out[i] = -float(code) if code else float(data[my[i, last[i]], mx[i, last[i]]])
+
+
 @register_critic("BaseObstacle")
 class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
     """Cost of the cells under the robot centre; lethal, inscribed or unknown rejects.
@@ -67,13 +94,18 @@ class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
     def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
         cm = ctx.costmap
         mx, my, inside = batch_cells(batch, cm)
-        cost = cm.data[my, mx]
         limit = blocking_cost(cm, ctx.pose)  # escaping the inscribed band is allowed
         if limit == INSCRIBED_INFLATED_OBSTACLE and self.params.max_cost < 252:
             limit = self.params.max_cost + 1  # the clearance band, escapable as well
             here = cm.world_to_map(ctx.pose.x, ctx.pose.y)
             if here is not None and cm.data[here[1], here[0]] >= limit:
                 limit = INSCRIBED_INFLATED_OBSTACLE
+        if not self.params.sum_scores:
+            scores = np.empty(len(batch))
+            _base_last_scores(cm.data, mx, my, inside, limit,
+                              np.ascontiguousarray(batch.lengths - 1, dtype=np.int64), scores)
+            return scores
+        cost = cm.data[my, mx]
         codes = np.where(~inside, 1,
                          np.where(cost == NO_INFORMATION, 3, np.where(cost >= limit, 2, 0)))
         scores = _aggregate(cost.astype(np.float64), batch, self.params.sum_scores)

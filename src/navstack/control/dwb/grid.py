@@ -41,14 +41,32 @@ def world_to_cells(costmap: Costmap2D, x: FloatArray,
     """Cells ``(mx, my)`` of world points of any shape, and whether each is on the grid.
 
     Off-grid entries are clipped to a valid index so they can be gathered safely; mask
-    them with ``inside``.
+    them with ``inside``.  One numba pass (:func:`_cells_kernel`).
     """
-    fx = np.floor((x - costmap.origin_x) / costmap.resolution)
-    fy = np.floor((y - costmap.origin_y) / costmap.resolution)
-    inside = (fx >= 0) & (fx < costmap.size_x) & (fy >= 0) & (fy < costmap.size_y)
-    mx = np.clip(fx, 0, costmap.size_x - 1).astype(np.int64)
-    my = np.clip(fy, 0, costmap.size_y - 1).astype(np.int64)
+    x = np.asarray(x, dtype=np.float64)
+    shape = x.shape
+    mx = np.empty(shape, dtype=np.int64)
+    my = np.empty(shape, dtype=np.int64)
+    inside = np.empty(shape, dtype=np.bool_)
+    _cells_kernel(np.ascontiguousarray(x).reshape(-1),
+                  np.ascontiguousarray(y, dtype=np.float64).reshape(-1),
+                  float(costmap.origin_x), float(costmap.origin_y), float(costmap.resolution),
+                  int(costmap.size_x), int(costmap.size_y), mx.reshape(-1), my.reshape(-1),
+                  inside.reshape(-1))
     return mx, my, inside
+
+
+@numba.njit(cache=True)
+def _cells_kernel(x: FloatArray, y: FloatArray, origin_x: float, origin_y: float,
+                  resolution: float, size_x: int, size_y: int, mx: IntArray, my: IntArray,
+                  inside: NDArray[np.bool_]) -> None:
+    """``floor((p - origin) / resolution)``, clipped into the grid, for flat arrays."""
+    for i in range(x.shape[0]):
+        fx = np.floor((x[i] - origin_x) / resolution)
+        fy = np.floor((y[i] - origin_y) / resolution)
+        inside[i] = fx >= 0 and fx < size_x and fy >= 0 and fy < size_y
+        mx[i] = int(min(max(fx, 0.0), size_x - 1))
+        my[i] = int(min(max(fy, 0.0), size_y - 1))
 
 
 def adjust_plan_resolution(plan: FloatArray, resolution: float) -> FloatArray:
@@ -59,20 +77,87 @@ def adjust_plan_resolution(plan: FloatArray, resolution: float) -> FloatArray:
     """
     if len(plan) < 2:
         return plan.copy()
-    diff = np.diff(plan, axis=0)
-    dist = np.hypot(diff[:, 0], diff[:, 1])
-    steps = np.where(dist ** 2 > resolution ** 2,
-                     np.ceil((dist - resolution) / resolution) + 1.0, 1.0).astype(np.int64)
-    seg = np.repeat(np.arange(len(steps)), steps)
-    starts = np.concatenate(([0], np.cumsum(steps)[:-1]))
-    j = (np.arange(len(seg)) - starts[seg] + 1).astype(np.float64)
-    frac = (j / steps[seg])[:, None]
-    out = np.empty((len(seg) + 1, 3))
-    out[0] = plan[0]
-    out[1:] = plan[seg] + frac * diff[seg]
-    ends = np.cumsum(steps)
-    out[ends] = plan[1:]
+    plan = np.ascontiguousarray(plan, dtype=np.float64)
+    steps = _densify_steps(plan, resolution)
+    out = np.empty((int(steps.sum()) + 1, 3))
+    _densify(plan, steps, out)
     return out
+
+
+@numba.njit(cache=True)
+def _densify_steps(plan: FloatArray, resolution: float) -> IntArray:
+    m = plan.shape[0] - 1
+    steps = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        dx = plan[i + 1, 0] - plan[i, 0]
+        dy = plan[i + 1, 1] - plan[i, 1]
+        dist = np.hypot(dx, dy)
+        steps[i] = int(np.ceil((dist - resolution) / resolution) + 1.0) \
+            if dist ** 2 > resolution ** 2 else 1
+    return steps
+
+
+@numba.njit(cache=True)
+def _densify(plan: FloatArray, steps: IntArray, out: FloatArray) -> None:
+    """Pose ``j`` of gap ``i`` is ``plan[i] + (j / steps[i]) * (plan[i+1] - plan[i])``;
+    the gap's end is ``plan[i + 1]`` exactly."""
+    out[0] = plan[0]
+    k = 1
+    for i in range(steps.shape[0]):
+        n = steps[i]
+        for j in range(1, n):
+            frac = j / n
+            for c in range(3):
+                out[k, c] = plan[i, c] + frac * (plan[i + 1, c] - plan[i, c])
+            k += 1
+        for c in range(3):
+            out[k, c] = plan[i + 1, c]
+        k += 1
+
+
+@numba.njit(cache=True)
+def plan_run_end(plan: FloatArray, resolution: float, origin_x: float, origin_y: float,
+                 data: NDArray[np.uint8], unknown: int) -> tuple[bool, int, int]:
+    """``(found, mx, my)``: the last cell of the first run of the densified plan on
+    known grid cells (``found`` False if no pose is on one): the last entry of
+    ``plan_run_cells`` without building the dense plan (same points, same arithmetic
+    as :func:`adjust_plan_resolution` and :func:`world_to_cells`)."""
+    size_y, size_x = data.shape
+    started = False
+    last_x, last_y = -1, -1
+    m = plan.shape[0]
+    if m == 0:
+        return (False, -1, -1)
+    for i in range(m):
+        if i == 0:
+            n = 1
+        else:
+            dx = plan[i, 0] - plan[i - 1, 0]
+            dy = plan[i, 1] - plan[i - 1, 1]
+            dist = np.hypot(dx, dy)
+            n = int(np.ceil((dist - resolution) / resolution) + 1.0) \
+                if dist ** 2 > resolution ** 2 else 1
+        for j in range(1, n + 1):
+            if i == 0:
+                px, py = plan[0, 0], plan[0, 1]
+            elif j == n:
+                px, py = plan[i, 0], plan[i, 1]
+            else:
+                frac = j / n
+                px = plan[i - 1, 0] + frac * (plan[i, 0] - plan[i - 1, 0])
+                py = plan[i - 1, 1] + frac * (plan[i, 1] - plan[i - 1, 1])
+            fx = np.floor((px - origin_x) / resolution)
+            fy = np.floor((py - origin_y) / resolution)
+            ok = fx >= 0 and fx < size_x and fy >= 0 and fy < size_y
+            if ok:
+                cx, cy = int(fx), int(fy)
+                ok = data[cy, cx] != unknown
+            if ok:
+                started = True
+                last_x, last_y = cx, cy
+            elif started:
+                return (True, last_x, last_y)
+    return (started, last_x, last_y)
 
 
 _DX = np.array([-1, 0, 1, 0], dtype=np.int64)

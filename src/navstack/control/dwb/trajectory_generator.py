@@ -186,6 +186,19 @@ class StandardTrajectoryGenerator:
     def sample_velocities(self, current: Twist2D) -> FloatArray:
         """``(N, 3)`` admissible commands (x-major order, as ``XYThetaIterator``)."""
         p, lim, t = self.params, self.limits, self.params.sim_period
+        return _sample_window(
+            current.vx, current.vy, current.wz,
+            np.array([p.min_vel_x, p.min_vel_y, -lim.max_vel_theta]),
+            np.array([lim.max_vel_x, lim.max_vel_y, lim.max_vel_theta]),
+            np.array([p.acc_lim_x, p.acc_lim_y, p.acc_lim_theta]),
+            np.array([p.decel_lim_x, p.decel_lim_y, p.decel_lim_theta]), t,
+            np.array([p.vx_samples, p.vy_samples, p.vtheta_samples], dtype=np.int64),
+            lim.max_speed_xy, p.min_speed_xy, p.min_speed_theta)
+
+    def sample_velocities_numpy(self, current: Twist2D) -> FloatArray:
+        """:meth:`sample_velocities` built from :func:`axis_samples` with numpy (the
+        reference the compiled :func:`_sample_window` is tested against)."""
+        p, lim, t = self.params, self.limits, self.params.sim_period
         xs = axis_samples(current.vx, p.min_vel_x, lim.max_vel_x, p.acc_lim_x, p.decel_lim_x,
                           t, p.vx_samples)
         ys = axis_samples(current.vy, p.min_vel_y, lim.max_vel_y, p.acc_lim_y, p.decel_lim_y,
@@ -272,6 +285,75 @@ def _rollout(vel: FloatArray, steps: IntArray, dt: FloatArray, start: FloatArray
             poses[i, k, 0] = x
             poses[i, k, 1] = y
             poses[i, k, 2] = th
+
+
+@numba.njit(cache=True)
+def _axis(current: float, vmin: float, vmax: float, acc: float, decel: float,
+          acc_time: float, num_samples: int) -> FloatArray:
+    """:func:`axis_samples` compiled; ``np.linspace``'s arithmetic (``i * step + lo``,
+    last value exactly ``hi``) so the samples are bit-identical."""
+    cur = min(max(current, vmin), vmax)
+    hi = project_velocity(cur, acc, decel, acc_time, vmax)
+    lo = project_velocity(cur, acc, decel, acc_time, vmin)
+    if abs(hi - lo) < EPSILON:
+        return np.array([lo])
+    num = max(2, num_samples)
+    div = num - 1
+    delta = hi - lo
+    step = delta / div
+    vals = np.empty(num + 1)
+    has_zero = False
+    for i in range(num):
+        v = (i / div) * delta + lo if step == 0.0 else i * step + lo
+        if i == num - 1:
+            v = hi
+        if abs(v) < 1e-9:
+            v = 0.0
+            has_zero = True
+        vals[i] = v
+    if lo < 0.0 < hi and not has_zero:
+        k = 0
+        while k < num and vals[k] < 0.0:
+            k += 1
+        for j in range(num, k, -1):
+            vals[j] = vals[j - 1]
+        vals[k] = 0.0
+        return vals
+    return vals[:num]
+
+
+@numba.njit(cache=True)
+def _sample_window(vx: float, vy: float, wz: float, vmin: FloatArray, vmax: FloatArray,
+                   acc: FloatArray, decel: FloatArray, acc_time: float, samples: IntArray,
+                   max_speed_xy: float, min_speed_xy: float,
+                   min_speed_theta: float) -> FloatArray:
+    """Axis samples, their x-major product and ``isValidSpeed`` in one compiled pass
+    (same values and order as :meth:`StandardTrajectoryGenerator.sample_velocities_numpy`)."""
+    xs = _axis(vx, vmin[0], vmax[0], acc[0], decel[0], acc_time, samples[0])
+    ys = _axis(vy, vmin[1], vmax[1], acc[1], decel[1], acc_time, samples[1])
+    ths = _axis(wz, vmin[2], vmax[2], acc[2], decel[2], acc_time, samples[2])
+    out = np.empty((xs.shape[0] * ys.shape[0] * ths.shape[0], 3))
+    n = 0
+    check_max = max_speed_xy >= 0.0
+    max_sq = max_speed_xy ** 2 + EPSILON
+    check_min = min_speed_xy >= 0.0 and min_speed_theta >= 0.0
+    min_sq = min_speed_xy ** 2
+    for a in xs:
+        for b in ys:
+            vmag_sq = a ** 2 + b ** 2
+            for c in ths:
+                if check_max and not vmag_sq <= max_sq:
+                    continue
+                if check_min and (vmag_sq + EPSILON < min_sq
+                                  and abs(c) + EPSILON < min_speed_theta):
+                    continue
+                if vmag_sq == 0.0 and c == 0.0:
+                    continue
+                out[n, 0] = a
+                out[n, 1] = b
+                out[n, 2] = c
+                n += 1
+    return out[:n].copy()
 
 
 class LimitedAccelGenerator(StandardTrajectoryGenerator):

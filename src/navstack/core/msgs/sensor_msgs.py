@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -258,33 +259,75 @@ class OccupancyGrid:
         return math.floor(ly / self.info.resolution), math.floor(lx / self.info.resolution)
 
 
-@dataclass(frozen=True, slots=True, eq=False)
+class _Unset:
+    """Marks an argument not given (``None`` is a meaningful ``_poses`` value)."""
+
+
+_UNSET = _Unset()
+
+
+@dataclass(frozen=True, slots=True, eq=False, init=False, repr=False)
 class Path:
     """nav_msgs/Path: a sequence of stamped poses in ``header.frame_id``.
 
     The ``(N, 3)`` (x, y, theta) array view is computed once and cached (controllers ask
-    for it every cycle); a Path is immutable, so the cache never goes stale.
+    for it every cycle); a Path is immutable, so the cache never goes stale.  A Path
+    built :meth:`from_array` makes its ``poses`` on first access: controllers that only
+    read the array (a plan re-transformed into ``odom`` on every replan) never pay for
+    hundreds of ``PoseStamped`` objects.
     """
 
-    header: Header = field(default_factory=Header)
-    poses: tuple[PoseStamped, ...] = ()
-    _xyt: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    header: Header
+    _poses: tuple[PoseStamped, ...] | None
+    _xyt: NDArray[np.float64] | None
+
+    def __init__(self, header: Header | None = None, poses: Iterable[PoseStamped] = (),
+                 _xyt: NDArray[np.float64] | None = None,
+                 _poses: Iterable[PoseStamped] | _Unset | None = _UNSET) -> None:
+        """``_poses`` is the field as :func:`dataclasses.fields` names it (the transport's
+        decoder and :func:`dataclasses.replace` pass it); ``None`` there means "made from
+        ``_xyt`` on first access"."""
+        object.__setattr__(self, "header", Header() if header is None else header)
+        if isinstance(_poses, _Unset):
+            _poses = poses
+        elif _poses is None and _xyt is None:
+            raise ValueError("Path: _poses=None needs the _xyt array to make them from")
+        if _poses is not None and not isinstance(_poses, tuple):
+            _poses = tuple(_poses)
+        object.__setattr__(self, "_poses", _poses)
+        object.__setattr__(self, "_xyt", _xyt)
+
+    @property
+    def poses(self) -> tuple[PoseStamped, ...]:
+        if self._poses is None:
+            h = self.header
+            arr = self._xyt
+            assert arr is not None
+            half = 0.5 * arr[:, 2]
+            rows = zip(arr[:, 0].tolist(), arr[:, 1].tolist(), np.sin(half).tolist(),
+                       np.cos(half).tolist(), strict=True)
+            object.__setattr__(self, "_poses", tuple(
+                PoseStamped(h, Pose(Point(x, y, 0.0), Quaternion(0.0, 0.0, qz, qw)))
+                for x, y, qz, qw in rows))
+        assert self._poses is not None
+        return self._poses
+
+    def __repr__(self) -> str:
+        return f"Path(header={self.header!r}, poses={self.poses!r})"
 
     @staticmethod
     def from_array(xyt: NDArray[np.float64], frame_id: str = "map", stamp: float = 0.0) -> Path:
         """Build from an ``(N, 3)`` array of (x, y, theta).
 
-        The quaternions are computed for all rows at once (``Quaternion.from_yaw`` per
-        row took most of the time of a long path: 10 us per pose).
+        The quaternions are computed for all rows at once when ``poses`` is first read
+        (``Quaternion.from_yaw`` per row took most of the time of a long path: 10 us per
+        pose).
         """
-        h = Header(stamp, frame_id)
         arr = np.array(xyt, dtype=np.float64).reshape(-1, 3)
         arr.setflags(write=False)
-        half = 0.5 * arr[:, 2]
-        rows = zip(arr[:, 0].tolist(), arr[:, 1].tolist(), np.sin(half).tolist(),
-                   np.cos(half).tolist(), strict=True)
-        return Path(h, tuple(PoseStamped(h, Pose(Point(x, y, 0.0), Quaternion(0.0, 0.0, qz, qw)))
-                             for x, y, qz, qw in rows), arr)
+        path = Path(Header(stamp, frame_id), (), arr)
+        object.__setattr__(path, "_poses", None)
+        return path
 
     def as_array(self) -> NDArray[np.float64]:
         """``(N, 3)`` array of (x, y, theta) (read-only; copy before modifying)."""

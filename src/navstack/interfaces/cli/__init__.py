@@ -6,16 +6,20 @@ commands (which sit above this layer) and is the console entry point.
 """
 
 from navstack.interfaces.cli import (
+    aruco_cmds,
     bag_cmds,
     demo_cmds,
     health_cmds,
     link_cmds,
+    mission_cmds,
     sim_cmds,
     slam_cmds,
+    split_cmds,
     telegram_cmds,
     teleop_cmds,
 )
 from navstack.interfaces.cli.common import app
 
-__all__ = ["app", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds", "sim_cmds", "slam_cmds",
-           "telegram_cmds", "teleop_cmds"]
+__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds",
+           "mission_cmds", "sim_cmds", "slam_cmds", "split_cmds", "telegram_cmds",
+           "teleop_cmds"]

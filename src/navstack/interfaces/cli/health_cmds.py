@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -40,9 +40,18 @@ def check(
     old_stack: Annotated[Path | None, typer.Argument(
         hidden=True, metavar="[STACK_FILE]", help="Deprecated: use --stack.")] = None,
     old_seconds: Annotated[float | None, seconds_alias(low=0.5, low_open=False)] = None,
+    link: Annotated[str | None, typer.Option(
+        "--link", help="Join the split stack as this process of the stack file's transport "
+                       "section (e.g. base) and check the clock contract with its peers "
+                       "instead of simulating.")] = None,
+    no_compensate: Annotated[bool, typer.Option(
+        "--no-compensate", help="With --link: judge as if stamps were not compensated.")]
+    = False,
 ) -> None:
     """Run the stack in simulation with a short goal and check its health contracts.
 
+    With ``--link NAME`` (a split stack over Zenoh): join as NAME for --duration seconds
+    and check the ``clock`` contract with every peer (offset, round trip, compensation).
     Prints one row per check (ok/FAIL, what was measured, how to fix it); exits 0 when
     every check passes, 1 when one fails, 2 when the stack cannot be built.
     """
@@ -52,12 +61,17 @@ def check(
     seconds = prefer("--duration", duration, "--seconds", old_seconds, warn)
     try:
         with stop_on_sigterm():
-            session = HealthSession(build_stack(stack_file, world, robot, seed))
-            try:
-                session.run(seconds)
-                results = session.report()
-            finally:
-                session.close()
+            if link is not None:
+                if stack_file is None:
+                    raise fail("--link needs --stack (the file with the transport section)")
+                results = _link_checks(stack_file, link, seconds, no_compensate)
+            else:
+                session = HealthSession(build_stack(stack_file, world, robot, seed))
+                try:
+                    session.run(seconds)
+                    results = session.report()
+                finally:
+                    session.close()
     except NavstackError as exc:
         raise fail(one_line(exc)) from None
     from rich.console import Console
@@ -65,7 +79,8 @@ def check(
     from rich.text import Text
 
     source = str(stack_file) if stack_file is not None else f"{world} / {robot}"
-    table = Table(title=Text(f"navstack check {source} ({seconds:g} s simulated)"))
+    span = f"link as '{link}', {seconds:g} s" if link else f"{seconds:g} s simulated"
+    table = Table(title=Text(f"navstack check {source} ({span})"))
     for column in ("check", "status", "detail", "fix"):
         table.add_column(column)
     for r in results:  # Text: brackets in details ("[m/s]") are not markup
@@ -76,6 +91,27 @@ def check(
                + (f"; failed: {', '.join(failed)}" if failed else ""))
     if failed:
         raise typer.Exit(code=1)
+
+
+def _link_checks(stack_file: Path, name: str, seconds: float,
+                 no_compensate: bool) -> list[Any]:
+    """The clock contract of process ``name`` of a split stack with each of its peers."""
+    from navstack.interfaces.health.checks import clock_contract
+    from navstack.interfaces.split import transport_for, wall_runtime
+    from navstack.runtime.transports.zenoh_link import ZenohLink
+
+    t = transport_for(stack_file, name,
+                      {"clock.compensate": False} if no_compensate else None)
+    rt = wall_runtime(t)
+    zlink = ZenohLink(rt, t, peers=t.peers)
+    try:  # wait (at most 30 s) for every peer to answer, then observe for `seconds`
+        rt.scheduler.run_for(30.0 * t.clock.rate,
+                             until=lambda: all(zlink.ready(p) for p in t.peers))
+        rt.scheduler.run_for(seconds * t.clock.rate)
+        health = zlink.health()
+    finally:
+        zlink.close()
+    return [clock_contract(peer, health[peer], t.clock.tolerance) for peer in t.peers]
 
 
 @app.command()

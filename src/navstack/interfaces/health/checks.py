@@ -342,3 +342,33 @@ def all_checks(obs: Observations, params: HealthParams) -> list[CheckResult]:
     out.append(base_consumes_cmd_vel(obs, params))
     out.append(progress(obs, params))
     return out
+
+
+def clock_contract(peer: str, health: dict[str, float | int | bool], tolerance: float
+                   ) -> CheckResult:
+    """The ``clock`` contract of a split stack (issue 21): ``peer`` answers the clock
+    exchange, and its clock either agrees with ours within ``tolerance`` or the estimated
+    offset is applied to every received stamp (``transport.clock.compensate``).
+
+    ``health``: :meth:`ZenohLink.health` of the peer (``offset_s``, ``round_trip_s``,
+    ``exchanges``, ``up``, ``compensated``)."""
+    name = f"clock:{peer}"
+    if not health.get("exchanges"):
+        return CheckResult(name, False, f"no clock exchange with '{peer}' answered",
+                           f"start '{peer}' and check transport.listen / transport.connect "
+                           f"endpoints and firewalls")
+    offset, rtt = float(health["offset_s"]), float(health["round_trip_s"])
+    detail = (f"offset of '{peer}' {offset * 1e3:+.1f} ms (round trip {rtt * 1e3:.2f} ms, "
+              f"{int(health['exchanges'])} exchanges)")
+    if not health.get("up", False):
+        return CheckResult(name, False, detail + "; link down now",
+                           f"'{peer}' stopped answering: check the link")
+    if abs(offset) <= tolerance:
+        return CheckResult(name, True, detail)
+    if health.get("compensated", False):
+        return CheckResult(name, True, detail + "; compensated on receipt")
+    return CheckResult(name, False, detail + f" exceeds {tolerance * 1e3:.1f} ms and "
+                       f"compensation is off: stamps from '{peer}' are off by "
+                       f"{offset:+.3f} s (TF extrapolation errors, dropped data)",
+                       "set transport.<name>.clock.compensate: true, or sync the clocks "
+                       "(chrony / NTP) on both machines")

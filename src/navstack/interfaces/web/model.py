@@ -2,7 +2,8 @@
 
 It listens on the bus like any other node -- ``/map`` (latched), ``/global_costmap/costmap``,
 ``/local_costmap/costmap``, ``/scan``, the planner's ``/plan``, ``/amcl_pose`` and
-``/odometry/filtered`` when present -- and after each simulation step (at most
+``/odometry/filtered`` when present, and a running mission's ``/mission/state`` (JSON) and
+frontier markers (``/explore/frontiers``) -- and after each simulation step (at most
 ``frame_rate`` times per wall second) builds one immutable snapshot: robot pose from TF
 (``map`` <- ``base_link``), the scan in ``map``, the controller's chosen local trajectory,
 the navigation status, the e-stop state and a health block.  The server thread only ever
@@ -30,15 +31,21 @@ from navstack.core.errors import TransformError
 from navstack.core.geometry import se2_apply
 from navstack.core.msgs import (
     LaserScan,
+    MarkerArray,
     OccupancyGrid,
     Odometry,
     Path,
     Pose2D,
     PoseWithCovarianceStamped,
+    String,
 )
+from navstack.core.msgs.fiducial_msgs import MARKER_MAP_VIZ_TOPIC as ARUCO_TOPIC
+from navstack.core.rotations import quaternion_to_matrix
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.web.commands import NavCommander
 from navstack.interfaces.web.images import Scheme, grid_png
+from navstack.missions.explore import FRONTIERS_TOPIC
+from navstack.missions.mission import MISSION_STATE_TOPIC
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS, Subscription
 
 LAYERS: dict[str, tuple[str, Scheme]] = {
@@ -119,6 +126,10 @@ class DashboardModel:
         self.trail: tuple[int, list[tuple[float, float]]] = (0, [])
         self._scan: LaserScan | None = None
         self._loc: tuple[str, float, NDArray[np.float64]] | None = None
+        self._aruco: list[list[Any]] = []
+        self._mission: dict[str, Any] | None = None
+        self._frontiers: dict[str, list[float]] = {"points": [], "blacklisted": [],
+                                                   "goals": []}
         self._grids: dict[str, OccupancyGrid] = {}
         self._subs: list[Subscription[Any]] = []
         self._last_frame_wall = -math.inf
@@ -139,6 +150,11 @@ class DashboardModel:
             self._subs.append(bus.subscribe("/amcl_pose", PoseWithCovarianceStamped,
                                             self._on_amcl, QoS(depth=1)))
             self._subs.append(bus.subscribe("/odometry/filtered", Odometry, self._on_ekf,
+                                            QoS(depth=1)))
+            self._subs.append(bus.subscribe(ARUCO_TOPIC, MarkerArray, self._on_aruco, LATCHED))
+            self._subs.append(bus.subscribe(MISSION_STATE_TOPIC, String, self._on_mission,
+                                            LATCHED))
+            self._subs.append(bus.subscribe(FRONTIERS_TOPIC, MarkerArray, self._on_frontiers,
                                             QoS(depth=1)))
             self._build_frame(self.stack.now)
 
@@ -171,12 +187,47 @@ class DashboardModel:
                 return
         self.plan = (self.plan[0] + 1, _flat(np.asarray(xy), 1000))
 
+    def _on_aruco(self, msg: MarkerArray) -> None:
+        """ArUco markers and packages on the map: ``[id, x, y, facing yaw, kind]`` (map
+        frame; the facing yaw is the marker's z axis)."""
+        out = []
+        for m in msg.markers:
+            if m.ns not in ("aruco_markers", "packages") or (m.header.frame_id or "map") != "map":
+                continue
+            r = quaternion_to_matrix(m.pose.orientation)
+            facing = math.atan2(r[1, 2], r[0, 2]) if m.ns == "aruco_markers" else 0.0
+            out.append([m.id, round(m.pose.position.x, 3), round(m.pose.position.y, 3),
+                        round(facing, 3), "package" if m.ns == "packages" else "marker"])
+        self._aruco = out
+
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         self._loc = ("/amcl_pose", msg.header.stamp, np.asarray(msg.pose.covariance))
 
     def _on_ekf(self, msg: Odometry) -> None:
         if self._loc is None or self._loc[0] != "/amcl_pose":
             self._loc = ("/odometry/filtered", msg.header.stamp, np.asarray(msg.pose.covariance))
+
+    def _on_mission(self, msg: String) -> None:
+        try:
+            self._mission = json.loads(msg.data)
+        except ValueError:
+            self._mission = {"name": "?", "status": "?", "feedback": msg.data[:200]}
+
+    def _on_frontiers(self, msg: MarkerArray) -> None:
+        """Frontier cells (blue), blacklisted cells (red) and goals, as flat x, y lists."""
+        points: list[float] = []
+        black: list[float] = []
+        goals: list[float] = []
+        for m in msg.markers:
+            if m.action != m.ADD:
+                continue
+            if m.type == m.SPHERE:
+                goals += [round(m.pose.position.x, 2), round(m.pose.position.y, 2)]
+            elif m.type == m.POINTS:
+                flat = [round(v, 2) for p in m.points for v in (p.x, p.y)]
+                (black if m.ns == "blacklist" else points).extend(flat)
+        self._frontiers = {"points": points[:4000], "blacklisted": black[:2000],
+                           "goals": goals}
 
     def _on_grid(self, name: str, scheme: Scheme, grid: OccupancyGrid) -> None:
         """Re-encode only when the content or the placement in ``map`` changed."""
@@ -236,11 +287,14 @@ class DashboardModel:
             "local_plan": self._local_plan(),
             "nav": self.commander.status(),
             "waypoints": self.commander.waypoint_list()["waypoints"],
+            "aruco": self._aruco,
             "estop": self.runner.estop.state(),
             "health": self._health(now, counts),
             "layers": {k: v.version for k, v in self.layers.items()},
             "plan_version": self.plan[0],
             "trail_end": self.trail[0] + len(self.trail[1]),
+            "mission": self._mission,
+            "frontiers": self._frontiers,
         }
         self.frame = (self._seq, json.dumps(frame, allow_nan=False, separators=(",", ":")))
 

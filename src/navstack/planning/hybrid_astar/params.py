@@ -90,7 +90,12 @@ class HybridAStarParams(Params):
     terminal_checking_interval: int = Field(5000, ge=1)
     """Expansions between checks of the cancel callback and ``max_planning_time``."""
     max_planning_time: float = Field(5.0, gt=0.0)
-    """Time budget for search and smoothing [s]."""
+    """Time budget of the search [s]: wall time (Nav2), or on simulated time
+    ``max_planning_time x sim_expansion_rate`` expansions (:mod:`navstack.planning.budget`)."""
+    sim_expansion_rate: float = Field(1_000_000.0, gt=0.0)
+    """navstack: expansions that count as one second of ``max_planning_time`` when the
+    planner runs on simulated time (about the reference machine's rate,
+    docs/hybrid_astar.md: 0.7 us an expansion), so a seed plans the same everywhere."""
     allow_unknown: bool = True
     """Traverse NO_INFORMATION cells."""
     downsample_costmap: bool = False

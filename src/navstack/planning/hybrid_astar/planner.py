@@ -47,6 +47,7 @@ from navstack.costmap.footprint import make_footprint
 from navstack.costmap.inflation_kernel import cell_distance, cost_lut
 from navstack.costmap.inflation_layer import InflationLayer
 from navstack.costmap.layered_costmap import LayeredCostmap
+from navstack.planning.budget import PlanningBudget
 from navstack.planning.hybrid_astar import search as hs
 from navstack.planning.hybrid_astar.checks import pose_collision
 from navstack.planning.hybrid_astar.collision import (
@@ -386,13 +387,24 @@ class HybridAStar(GlobalPlanner):
         # the first call of a process compiles the kernel (or loads it from the numba
         # cache): the time budget starts once it has returned
         compiling = not hs.search_run.signatures
+        budget_clock = PlanningBudget(p.max_planning_time, p.sim_expansion_rate,
+                                      self.simulated_time)
+        budget_clock.restart(t0)  # Nav2 counts the heuristic set-up too
+        self._budget = budget_clock
+        # on simulated time the search stops at exactly the expansion budget
+        sim_cap = budget_clock.max_expansions
         while True:
             if cancel is not None and cancel():
                 raise PlannerCancelled(f"{what} was cancelled after "
                                        f"{int(ws.istate[hs.I_ITER])} expansions")
-            budget = min(p.terminal_checking_interval, limit - int(ws.istate[hs.I_ITER]))
+            it = int(ws.istate[hs.I_ITER])
+            budget = min(p.terminal_checking_interval, limit - it)
             if budget <= 0:
                 return -1
+            if sim_cap is not None:
+                if sim_cap - it <= 0:
+                    return -2
+                budget = min(budget, sim_cap - it)
             status = hs.search_run(
                 budget, self._no_start, data, ip, fp, m.dx, m.dy, m.dbin, m.turn, m.reverse,
                 m.travel, m.samples, m.n_samples, self.cells.off_x, self.cells.off_y,
@@ -400,14 +412,14 @@ class HybridAStar(GlobalPlanner):
                 oh.state, self._table, ws.nodes, ws.cells, ws.blocks, ws.block_h, ws.hk, ws.hn,
                 ws.abest, ws.adir, ws.acost, ws.ascr, ws.asdir, ws.ascost, ws.istate, ws.fstate)
             if compiling:
-                t0 = time.perf_counter()
+                budget_clock.restart()
                 compiling = False
             if status == hs.GROW:
                 ws.grow()
                 continue
             if status != hs.RUNNING:
                 return status
-            if time.perf_counter() - t0 > p.max_planning_time:
+            if sim_cap is None and budget_clock.exceeded(int(ws.istate[hs.I_ITER])):
                 return -2
 
     def _result(self, ws: SearchWorkspace, status: int, start: Pose2D, goal: Pose2D,
@@ -441,9 +453,9 @@ class HybridAStar(GlobalPlanner):
                 f"max_iterations (or set it to -1) or tolerance")
         if status == -2:
             raise PlannerTimeout(
-                f"planning {what} exceeded max_planning_time {p.max_planning_time:.3f} s "
-                f"({it} expansions) without reaching the goal or a pose within tolerance "
-                f"{p.tolerance:.2f} m; raise max_planning_time or tolerance")
+                f"planning {what} exceeded {self._budget.describe(it)} without reaching "
+                f"the goal or a pose within tolerance {p.tolerance:.2f} m; raise "
+                f"max_planning_time or tolerance")
         bins = p.angle_quantization_bins
         gcx = int((goal.x - grid.origin_x) / res)
         gcy = int((goal.y - grid.origin_y) / res)

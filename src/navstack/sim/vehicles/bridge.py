@@ -99,7 +99,7 @@ class HilBridgeNode(Node):
 
     def __init__(self, runtime: Runtime, sim_node: SimulatorNode, vehicle: HilVehicle,
                  delivered: Callable[[str], int], deliver: Callable[[], None],
-                 actuation_rate_hz: float = 50.0, sync_timeout: float = 0.25,
+                 actuation_rate_hz: float = 50.0, sync_timeout: float = 1.0,
                  perfect_localization: bool = True, name: str = "hil_bridge") -> None:
         super().__init__(name, runtime)
         self.sim_node = sim_node

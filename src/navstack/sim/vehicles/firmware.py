@@ -10,9 +10,13 @@ navigation mux's timeout), which is what a vehicle must do when its link dies.
   output limits 0..21 (the Arduino's ``SetOutputLimits(0, 21)``) and a feed-forward of
   the setpoint; the output is the throttle of the cart's motor controller, which asks
   the motor for ``throttle * 0.25`` m/s (21 = 5.25 m/s, the cart's top speed), in the
-  direction the setpoint's sign selects (the forward/reverse switch).  The PID's
-  measurement is the wheel-pulse speed (4 pulses per revolution), so it lags, and the
-  gains are kept low (Kp 0.3, Ki 0.1 per m/s) -- the feed-forward does the work.
+  direction the setpoint's sign selects (the forward/reverse switch).  The gains are
+  low (Kp 0.3, Ki 0.1 per m/s): the feed-forward does the work.
+  The PID closes its loop on the drive's own speed (the motor controller's encoder;
+  in simulation the true speed), and holds its integral during the acceleration-limited
+  ramps (integral separation), so on the simulator's vehicle model it is transparent:
+  the cart accelerates at the model's limit and settles on the setpoint, exactly as
+  the in-process run's robot does (the hardware-in-the-loop comparison's premise).
   Steering: a stepper that moves toward the commanded step count at ``step_rate``
   steps/s (the profile's steering slew times 497.84 steps/rad) in whole steps.
 * :class:`CartMega` -- the sensor Arduino: wheel pulses from the distance the wheel
@@ -64,19 +68,31 @@ class RoverVcu:
 @dataclass
 class SpeedPid:
     """Arduino-PID-style controller: ``u = ff + Kp e + Ki int(e)``, clamped to
-    [0, ``out_max``] with conditional integration (no wind-up at the limits)."""
+    [0, ``out_max``].
+
+    Anti-windup twice over: the integral is frozen while the output is at a limit
+    (conditional integration) and while the error is larger than ``integral_band``
+    (integral separation) -- the motor's acceleration limit, not the PID, sets the pace
+    of a speed change, and integrating the error of that ramp would overshoot the
+    setpoint once the cart gets there.  The integral only trims the steady state
+    (the drive's gain away from the nominal 0.25 m/s per throttle unit).
+    """
 
     kp: float = 0.3
     """Throttle units per m/s of error."""
     ki: float = 0.1
     out_max: float = THROTTLE_MAX
+    integral_band: float = 0.1
+    """|error| [m/s] above which the integral holds."""
     integral: float = 0.0
 
     def update(self, setpoint: float, measured: float, dt: float) -> float:
+        """Throttle for the speed ``setpoint`` >= 0 [m/s]; ``measured`` is the speed in
+        the setpoint's direction (negative while the cart still rolls the other way)."""
         error = setpoint - measured
         ff = setpoint / MPS_PER_THROTTLE
         trial = ff + self.kp * error + self.ki * (self.integral + error * dt)
-        if 0.0 < trial < self.out_max:
+        if 0.0 < trial < self.out_max and abs(error) < self.integral_band:
             self.integral += error * dt
         if setpoint == 0.0:
             self.integral = 0.0
@@ -108,7 +124,10 @@ class CartUno:
         return -self.steps / STEPS_PER_RAD
 
     def step(self, now: float, dt: float, measured_speed: float) -> Twist2D:
-        """Advance the stepper and the PID by ``dt``; the motion the cart is asked for."""
+        """Advance the stepper and the PID by ``dt``; the motion the cart is asked for.
+
+        ``measured_speed``: the drive's signed speed [m/s] (the motor controller's
+        encoder, which the PID closes its loop on)."""
         alive = self.command is not None and now - self.received_at <= self.watchdog
         cmd = self.command if alive else None
         target = cmd.steps if cmd is not None else self.steps
@@ -117,7 +136,8 @@ class CartUno:
         self._step_budget -= moves
         self.steps += int(math.copysign(moves, target - self.steps)) if moves else 0
         setpoint = cmd.speed if cmd is not None else 0.0
-        self.throttle = self.pid.update(abs(setpoint), abs(measured_speed), dt)
+        along = measured_speed if setpoint >= 0.0 else -measured_speed
+        self.throttle = self.pid.update(abs(setpoint), along, dt)
         v = math.copysign(self.throttle * MPS_PER_THROTTLE, setpoint) if setpoint else 0.0
         return Twist2D(v, 0.0, v * math.tan(self.steering) / self.wheelbase)
 

@@ -9,8 +9,17 @@ behind its two Arduinos (serial ptys).
   over ground, its accuracy), both little-endian (:mod:`navstack.drivers.rover_telemetry`).
 * :class:`CartHil` -- the Uno on one pty (``'<fi'`` in; :class:`~.firmware.CartUno`
   runs the speed PID and the stepper) and the Mega on another (one ``$CART`` line per
-  odometry sample: wheel pulses of the simulated wheel odometry's speed, the simulated
-  IMU and magnetometer, distorted by the inverse of the calibration the driver applies).
+  odometry sample: wheel pulses of the simulated wheel odometry's speed, the mean of
+  the IMU readings since the previous line -- read at the profile's IMU rate -- and the
+  magnetometer, distorted by the inverse of the calibration the driver applies).
+
+**Same vehicle as in process.**  The firmware drives the simulator's own vehicle
+model (acceleration limit, steering slew), and its PID is transparent on it
+(:mod:`.firmware`); every sensor is sampled at the instants the in-process simulator
+node samples it, so the simulator's random streams are drawn in the same order and a
+seed gives the same noise through the wire as in process.  What the wire changes is
+only what a wire changes: float32 km/h, whole stepper steps, the line's decimals, and
+the odometry the driver dead-reckons from them.
 """
 
 from __future__ import annotations
@@ -39,6 +48,7 @@ from navstack.drivers.rover_telemetry import (
 from navstack.drivers.rover_vcu import decode_vcu_command
 from navstack.drivers.transport import UdpTransport
 from navstack.sim.robot import RobotParams
+from navstack.sim.sensors import GRAVITY
 from navstack.sim.simulator import Simulator
 from navstack.sim.vehicles.bridge import HilVehicle, TelemetrySource
 from navstack.sim.vehicles.far_side import FarSide
@@ -146,27 +156,52 @@ class CartHil(HilVehicle):
         self.uno.receive(cmd, now)  # type: ignore[arg-type]
 
     def actuate(self, sim: Simulator, now: float, dt: float) -> Twist2D | None:
-        return self.uno.step(now, dt, self.mega.speed)
+        return self.uno.step(now, dt, sim.state.vx)
 
     def power_off(self) -> None:
         self.uno.command = None
 
     def telemetry(self) -> list[TelemetrySource]:
-        return [TelemetrySource("sensors", 1.0 / self.robot.sensors.odometry.rate_hz,
-                                self._line)]
+        """One stream at the IMU's rate: the Mega reads the MPU9250 every tick (at the
+        profile's IMU rate and instants, as the in-process simulator samples it) and
+        sends a line with the wheel odometry and the mean of the IMU readings since
+        the previous line at the odometry rate."""
+        s = self.robot.sensors
+        self._line_period = 1.0 / s.odometry.rate_hz
+        self._imu_t: float | None = None
+        self._line_t: float | None = None
+        self._imu_sum = np.zeros(6)
+        self._imu_n = 0
+        self._imu_last = (0.0, 0.0, 0.0, 0.0, 0.0, GRAVITY)
+        rate = max(s.imu.rate_hz, s.odometry.rate_hz) if s.imu.enabled else s.odometry.rate_hz
+        return [TelemetrySource("sensors", 1.0 / rate, self._sample)]
 
-    def _line(self, sim: Simulator, now: float, dt: float) -> list[tuple[str, bytes]]:
+    def _sample(self, sim: Simulator, now: float, dt: float) -> list[tuple[str, bytes]]:
+        if self._imu_t is None:  # activation: the simulator node reads no IMU then
+            self._imu_t = now
+        elif sim.imu is not None and now - self._imu_t >= 1.0 / sim.imu.rate_hz - 1e-9:
+            imu = sim.imu_sample(now - self._imu_t, now)
+            self._imu_t = now
+            if imu is not None:
+                g, a = imu.angular_velocity, imu.linear_acceleration
+                self._imu_sum += (g.x, g.y, g.z, a.x, a.y, a.z)
+                self._imu_n += 1
+        if self._line_t is not None and now - self._line_t < self._line_period - 1e-9:
+            return []
+        line_dt = 0.0 if self._line_t is None else now - self._line_t
+        self._line_t = now
+        if self._imu_n:
+            mean = self._imu_sum / self._imu_n
+            self._imu_last = tuple(float(v) for v in mean)  # type: ignore[assignment]
+            self._imu_sum[:] = 0.0
+            self._imu_n = 0
         odom = sim.odom(now)
         speed = odom.twist.twist.linear.x if odom is not None else sim.state.vx
-        self.mega.roll(speed, dt, now)
-        imu = sim.imu_sample(dt, now)
+        self.mega.roll(speed, line_dt, now)
         mag = sim.magnetic_field(now)
-        accel = gyro = (0.0, 0.0, 0.0)
-        if imu is not None:
-            a, g = imu.linear_acceleration, imu.angular_velocity
-            accel, gyro = (a.x, a.y, a.z), (g.x, g.y, g.z)
         mag_ut = (0.0, 0.0, 0.0)
         if mag is not None:
             m = mag.magnetic_field
             mag_ut = (m.x * 1e6, m.y * 1e6, m.z * 1e6)
-        return [("sensors", self.mega.line(now, accel, gyro, mag_ut))]
+        gx, gy, gz, ax, ay, az = self._imu_last
+        return [("sensors", self.mega.line(now, (ax, ay, az), (gx, gy, gz), mag_ut))]

@@ -7,7 +7,8 @@
 const COLORS = {
   background: "#20242b", robot: "rgb(0,160,255)", robotEdge: "#00121f",
   scan: "#ff1744", plan: "#00e676", localPlan: "#ffd600", trail: "#ff9800",
-  goal: "#ff00ff", waypoint: "#b388ff",
+  goal: "#ff00ff", waypoint: "#b388ff", aruco: "#18ffff", package: "#ffab40",
+  frontier: "#2979ff", blacklisted: "#ff1744", frontierGoal: "#00e676",
 };
 
 const S = {
@@ -203,6 +204,35 @@ function arrow(x, y, th, color, len) {
   ctx.stroke();
 }
 
+// an ArUco marker on the map (a bar along its surface, a tick where it faces, its id) or
+// a package (the ring the costmap avoids)
+function drawAruco([id, x, y, yaw, kind]) {
+  const px = 1 / S.view.s;
+  ctx.lineWidth = 3 * px;
+  if (kind === "package") {
+    ctx.beginPath();
+    ctx.arc(x, y, 0.15, 0, 2 * Math.PI);
+    ctx.strokeStyle = COLORS.package;
+    ctx.stroke();
+  } else {
+    const c = Math.cos(yaw), s = Math.sin(yaw), h = 0.15;
+    ctx.beginPath();
+    ctx.moveTo(x + s * h, y - c * h);
+    ctx.lineTo(x - s * h, y + c * h);
+    ctx.moveTo(x, y);
+    ctx.lineTo(x + c * 0.12, y + s * 0.12);
+    ctx.strokeStyle = COLORS.aruco;
+    ctx.stroke();
+  }
+  ctx.save();
+  ctx.translate(x, y);
+  ctx.scale(px, -px);
+  ctx.fillStyle = kind === "package" ? COLORS.package : COLORS.aruco;
+  ctx.font = "12px sans-serif";
+  ctx.fillText(String(id), 6, -6);
+  ctx.restore();
+}
+
 function drawRobot(pose) {
   const [x, y, th] = pose;
   const c = Math.cos(th), s = Math.sin(th);
@@ -248,12 +278,41 @@ function render() {
       const d = 2.5 / S.view.s;
       for (let i = 0; i < st.scan.length; i += 2) ctx.fillRect(st.scan[i] - d / 2, st.scan[i + 1] - d / 2, d, d);
     }
+    drawFrontiers(st.frontiers);
     st.waypoints.forEach(([x, y, th]) => arrow(x, y, th, COLORS.waypoint, 0.5));
+    (st.aruco || []).forEach(drawAruco);
     const goals = st.nav.status === "EXECUTING" || st.nav.status === "ACCEPTED" ? st.nav.goals : [];
     goals.forEach(([x, y, th]) => arrow(x, y, th, COLORS.goal, 0.6));
     if (st.robot) drawRobot(st.robot);
   }
   S.renders += 1;
+}
+
+// exploration frontiers (explore/frontiers markers): cells as dots, goals as rings
+function drawFrontiers(f) {
+  if (!f) return;
+  const d = 3 / S.view.s;
+  [["points", COLORS.frontier], ["blacklisted", COLORS.blacklisted]].forEach(([key, color]) => {
+    ctx.fillStyle = color;
+    const pts = f[key];
+    for (let i = 0; i + 1 < pts.length; i += 2) ctx.fillRect(pts[i] - d / 2, pts[i + 1] - d / 2, d, d);
+  });
+  ctx.strokeStyle = COLORS.frontierGoal;
+  ctx.lineWidth = 2 / S.view.s;
+  for (let i = 0; i + 1 < f.goals.length; i += 2) {
+    ctx.beginPath();
+    ctx.arc(f.goals[i], f.goals[i + 1], 0.12, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+}
+
+function updateMission(m) {
+  if (!m) return;
+  setCell("ms-name", m.name);
+  setCell("ms-status", m.status, m.status === "FAILED" ? "bad" : (m.status === "CANCELED" ? "warn" : ""));
+  setCell("ms-doing", m.feedback || m.behaviour || "–");
+  setCell("ms-elapsed", m.elapsed.toFixed(0) + " s");
+  setCell("ms-reason", m.reason || "–", m.reason ? "warn" : "");
 }
 
 // --- panels -------------------------------------------------------------------------------------------------
@@ -273,6 +332,7 @@ function updatePanels(st) {
     : (nav.current_waypoint + 1) + " / " + nav.waypoint_count + (nav.waypoint_name ? " (" + nav.waypoint_name + ")" : ""));
   setCell("st-reason", nav.reason || "–", nav.reason ? "warn" : "");
   $("wp-count").textContent = "(" + st.waypoints.length + ")";
+  updateMission(st.mission);
   const h = st.health;
   const rate = (id, topic, low) => {
     const v = h.rates[topic];

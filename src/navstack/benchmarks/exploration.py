@@ -1,0 +1,212 @@
+"""``navstack bench exploration``: frontier exploration with SLAM, scored against the truth.
+
+For each world (office, warehouse, arena), seed (1..5) and strategy (``explore_lite``:
+explore_lite's cost and semantics; ``information_gain``: navstack's) the TurtleBot3 Waffle
+Pi explores from the world's spawn with live SLAM (:func:`navstack.missions.explore.
+explore_mission`, the ``navstack mission explore`` setup) and returns home.  Per run:
+
+* time to 90 % and 95 % of the *reachable free space* observed (the world's free cells the
+  robot can see from where it fits, known in the published ``/map``);
+* final map IoU (observable wall surfaces, :func:`~navstack.mapping.map_metrics.occupancy_iou`),
+  path length, collisions, the true distance to the start at the end;
+* SLAM map update latency (scan -> ``/map``) and goal-to-first-motion, p95;
+* success = SUCCEEDED, >= 95 % observed, home within 0.3 m, no collision.
+
+The reference is an idealised greedy nearest-frontier explorer on the same world
+(:func:`navstack.exploration.ideal.run_ideal`: perfect localisation, instant turns, the
+same lidar, the navigation speed limit); each run's time to 90 % is divided by it.
+
+Budgets (issue 16): success in >= 14 of 15 runs per strategy; median time to 90 % <= 2 x
+the reference on every world; the information-gain strategy's median time to 90 % below
+explore_lite's on every world; SLAM map update latency p95 <= 1 s and goal-to-first-motion
+p95 <= 0.4 s (the TurtleBot course's figures).  ``--quick``: the arena, one seed, both
+strategies (the CI subset).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navstack.benchmarks.common import BenchResult
+
+WORLDS = ("office", "warehouse", "arena")
+STRATEGIES = ("explore_lite", "information_gain")
+SEEDS = (1, 2, 3, 4, 5)
+MAX_DURATION = {"office": 3000.0, "warehouse": 6000.0, "arena": 900.0}
+ROBOT = "turtlebot3_waffle_pi"
+BUDGET_RATIO = 2.0
+BUDGET_SUCCESSES = 14 / 15
+BUDGET_SLAM_LATENCY_S = 1.0
+BUDGET_RESPONSE_S = 0.4
+
+
+def reference(world: str) -> dict[str, float]:
+    """The idealised greedy nearest-frontier explorer on ``world`` (module docstring)."""
+    from navstack.exploration.ideal import IdealRobot, reachable_free_space, run_ideal
+    from navstack.interfaces.mission_catalog import default_nav2_params
+    from navstack.runtime.config import load_yaml
+    from navstack.sim.robot import load_robot
+    from navstack.sim.worlds import load_world
+
+    w = load_world(world)
+    robot = load_robot(ROBOT)
+    nav2 = load_yaml(default_nav2_params(ROBOT) or "")
+    follow = nav2["controller_server"]["ros__parameters"]["FollowPath"]
+    speed = float(follow.get("desired_linear_vel", follow.get("max_vel_x", 0.26)))
+    lidar = robot.sensors.lidar
+    body = np.asarray(robot.footprint_model().polygon)
+    half_width = float(min(np.ptp(body[:, 0]), np.ptp(body[:, 1])) / 2.0)
+    target = reachable_free_space(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                                  (w.spawn.x, w.spawn.y), half_width, lidar.range_max)
+    ideal = IdealRobot(speed=speed, sensor_range=lidar.range_max, beams=lidar.beams,
+                       rate_hz=lidar.rate_hz, inscribed_radius=half_width + 0.05)
+    t0 = time.perf_counter()
+    res = run_ideal(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                    (w.spawn.x, w.spawn.y), ideal, target, max_time=20000.0)
+    return {"reference_time_to_90_s": res.time_to(0.90),
+            "reference_time_to_95_s": res.time_to(0.95),
+            "reference_path_length_m": res.path_length,
+            "reference_speed_m_s": speed, "reference_wall_s": time.perf_counter() - t0}
+
+
+def run_case(world: str, strategy: str, seed: int,
+             localization: str | None = None) -> dict[str, Any]:
+    """One exploration run; the report figures of ``navstack mission explore``.
+    ``localization`` ``"perfect"`` explores with given poses (no SLAM error)."""
+    from navstack.interfaces.mission_catalog import MissionOptions
+    from navstack.interfaces.mission_run import evaluate, start_mission
+
+    with tempfile.TemporaryDirectory() as tmp:
+        run = start_mission("explore", Path(tmp), world, ROBOT, seed,
+                            MissionOptions(strategy=strategy,
+                                           localization=localization,  # type: ignore[arg-type]
+                                           max_duration=MAX_DURATION.get(world, 3600.0)))
+        runner = run.runner.start()
+        while not runner.done:
+            run.stack.run_for(5.0)
+        report = evaluate(run)
+        run.close()
+    keys = ("status", "reason", "success", "duration_s", "time_to_90_s", "time_to_95_s",
+            "observed_fraction", "map_iou", "path_length_m", "collisions", "home_distance_m",
+            "slam_map_latency_p95_s", "slam_map_latency_sim_p95_s", "slam_map_build_s",
+            "goal_to_first_motion_p95_s", "goal_to_first_motion_wall_p95_s",
+            "max_spin_in_place_s", "pose_error_rms_m", "pose_error_max_m", "wall_time_s",
+            "real_time_factor")
+    case = {"world": world, "strategy": strategy, "seed": seed,
+            "localization": report["localization"],
+            **{k: report.get(k, math.nan) for k in keys}}
+    explore = report.get("explore", {})
+    case["goals"] = explore.get("goals_sent", 0)
+    case["blacklisted"] = explore.get("blacklisted", 0)
+    return case
+
+
+def _median(values: Sequence[float]) -> float:
+    return float(statistics.median(values)) if values else math.nan
+
+
+def summarize(cases: list[dict[str, Any]], refs: dict[str, dict[str, float]],
+              result: BenchResult) -> None:
+    """Metrics and budget checks from the per-run cases."""
+    m = result.metrics
+    worlds = sorted({c["world"] for c in cases}, key=lambda w: WORLDS.index(w)
+                    if w in WORLDS else 99)
+    strategies = [s for s in STRATEGIES if any(c["strategy"] == s for c in cases)]
+    for world in worlds:
+        ref = refs.get(world, {})
+        m[f"{world}.reference_time_to_90_s"] = ref.get("reference_time_to_90_s", math.nan)
+        m[f"{world}.reference_time_to_95_s"] = ref.get("reference_time_to_95_s", math.nan)
+        for s in strategies:
+            runs = [c for c in cases if c["world"] == world and c["strategy"] == s]
+            if not runs:
+                continue
+            t90 = [c["time_to_90_s"] for c in runs]
+            key = f"{world}.{s}"
+            m[f"{key}.success"] = float(sum(bool(c["success"]) for c in runs))
+            m[f"{key}.runs"] = float(len(runs))
+            m[f"{key}.time_to_90_s"] = _median(t90)
+            m[f"{key}.time_to_95_s"] = _median([c["time_to_95_s"] for c in runs])
+            m[f"{key}.ratio_to_reference"] = _median(t90) / ref.get(
+                "reference_time_to_90_s", math.nan)
+            m[f"{key}.map_iou"] = _median([c["map_iou"] for c in runs])
+            m[f"{key}.path_length_m"] = _median([c["path_length_m"] for c in runs])
+            m[f"{key}.collisions"] = float(sum(c["collisions"] for c in runs))
+            m[f"{key}.home_distance_max_m"] = max(c["home_distance_m"] for c in runs)
+    for s in strategies:
+        runs = [c for c in cases if c["strategy"] == s]
+        m[f"{s}.success"] = float(sum(bool(c["success"]) for c in runs))
+        m[f"{s}.runs"] = float(len(runs))
+    lat = [c["slam_map_latency_p95_s"] for c in cases if not math.isnan(c[
+        "slam_map_latency_p95_s"])]
+    resp = [c["goal_to_first_motion_p95_s"] for c in cases
+            if not math.isnan(c["goal_to_first_motion_p95_s"])]
+    m["slam_map_latency_p95_s"] = max(lat) if lat else math.nan
+    m["goal_to_first_motion_p95_s"] = max(resp) if resp else math.nan
+    m["max_spin_in_place_s"] = max(c["max_spin_in_place_s"] for c in cases)
+    _budgets(cases, worlds, strategies, result)
+
+
+def _budgets(cases: list[dict[str, Any]], worlds: list[str], strategies: list[str],
+             result: BenchResult) -> None:
+    m, notes = result.metrics, result.notes
+    ok = True
+    for s in strategies:
+        runs = m[f"{s}.runs"]
+        if m[f"{s}.success"] < math.ceil(BUDGET_SUCCESSES * runs - 1e-9):
+            ok = False
+            notes.append(f"budget: {s} succeeded in {m[f'{s}.success']:.0f} of {runs:.0f} "
+                         f"runs (needs {BUDGET_SUCCESSES * runs:.1f})")
+    for world in worlds:
+        for s in strategies:
+            ratio = m.get(f"{world}.{s}.ratio_to_reference", math.nan)
+            if not ratio <= BUDGET_RATIO:
+                ok = False
+                notes.append(f"budget: {world} {s} median time to 90 % is {ratio:.2f} x the "
+                             f"reference (budget {BUDGET_RATIO})")
+        if {"explore_lite", "information_gain"} <= set(strategies):
+            better = m.get(f"{world}.information_gain.time_to_90_s", math.nan)
+            lite = m.get(f"{world}.explore_lite.time_to_90_s", math.nan)
+            if not better < lite:
+                ok = False
+                notes.append(f"budget: {world}: information_gain median time to 90 % "
+                             f"{better:.0f} s is not below explore_lite's {lite:.0f} s")
+    if not m["slam_map_latency_p95_s"] <= BUDGET_SLAM_LATENCY_S:
+        ok = False
+        notes.append(f"budget: SLAM map update latency p95 {m['slam_map_latency_p95_s']:.2f} s "
+                     f"> {BUDGET_SLAM_LATENCY_S} s")
+    if not m["goal_to_first_motion_p95_s"] <= BUDGET_RESPONSE_S:
+        ok = False
+        notes.append(f"budget: goal-to-first-motion p95 {m['goal_to_first_motion_p95_s']:.2f}"
+                     f" s > {BUDGET_RESPONSE_S} s")
+    for c in cases:
+        if not c["success"]:
+            notes.append(f"run {c['world']} {c['strategy']} seed {c['seed']}: {c['status']} "
+                         f"observed {c['observed_fraction']:.3f}, home "
+                         f"{c['home_distance_m']:.2f} m, collisions {c['collisions']}"
+                         + (f": {c['reason']}" if c["reason"] else ""))
+    m["budgets_met"] = float(ok)
+
+
+def run(quick: bool, data_dir: Path | None, worlds: Sequence[str] | None = None,
+        seeds: Sequence[int] | None = None, strategies: Sequence[str] | None = None,
+        localization: str | None = None) -> BenchResult:
+    """The suite (module docstring); ``worlds``/``seeds``/``strategies`` select a part,
+    ``localization="perfect"`` explores with given poses instead of SLAM."""
+    result = BenchResult("exploration", show_cases=True)
+    worlds = list(worlds or (("arena",) if quick else WORLDS))
+    seeds = list(seeds or ((1,) if quick else SEEDS))
+    strategies = list(strategies or STRATEGIES)
+    refs = {w: reference(w) for w in worlds}
+    cases = [run_case(w, s, seed, localization) for w in worlds for seed in seeds
+             for s in strategies]
+    result.cases = cases
+    summarize(cases, refs, result)
+    return result

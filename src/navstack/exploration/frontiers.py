@@ -1,0 +1,172 @@
+"""Frontier search on a :class:`GridView`, with explore_lite's definitions and path
+distances.
+
+explore_lite (``frontier_search.cpp``) defines
+
+* a *frontier cell*: an unknown cell with at least one free 4-neighbour;
+* a *frontier*: an 8-connected group of frontier cells, kept when its size in metres
+  (cells x resolution) is at least ``min_frontier_size``;
+* its ``centroid`` (mean of its cells, the goal explore_lite sends) and ``min_distance``
+  (straight-line distance from the robot to its nearest cell).
+
+Here the distance is the *path* distance: a wavefront (:mod:`.wavefront`) from the robot
+through the traversable cells (where the robot centre may be), so a frontier behind a
+wall is as far as the way round it, and a frontier that no traversable path reaches --
+one seen through a gap narrower than the robot -- is *unreachable* and reported apart
+instead of being sent to the navigator.  A frontier's *approach cells* are the reached
+traversable cells within ``frontier_reach`` of it (the robot need not stand on unknown
+space to observe it); its ``distance`` is the nearest approach cell's path distance and
+its ``goal`` the approach cell nearest its centroid (explore_lite's centroid goal moved
+to where the robot can stand).  Blacklisted cells (:class:`~.blacklist.Blacklist`) are
+removed before grouping, as explore_lite skips blacklisted goals.
+
+Everything is vectorised numpy/scipy; the wavefront is numba.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from navstack.exploration.grid_view import BoolArray, FloatArray, GridView
+from navstack.exploration.wavefront import Wavefront
+
+IntArray = NDArray[np.int64]
+
+__all__ = ["Frontier", "FrontierSet", "find_frontiers", "frontier_cells"]
+
+_EIGHT = np.ones((3, 3), dtype=bool)
+
+
+def frontier_cells(view: GridView) -> BoolArray:
+    """Unknown cells with a free 4-neighbour (explore_lite ``isNewFrontierCell``)."""
+    free = view.free
+    nb = np.zeros_like(free)
+    nb[1:, :] |= free[:-1, :]
+    nb[:-1, :] |= free[1:, :]
+    nb[:, 1:] |= free[:, :-1]
+    nb[:, :-1] |= free[:, 1:]
+    return view.unknown & nb
+
+
+@dataclass(frozen=True)
+class Frontier:
+    """One frontier: its cells, size, centroid and how the robot reaches it."""
+
+    label: int
+    rows: IntArray
+    cols: IntArray
+    size: int
+    """Number of cells (explore_lite ``size``)."""
+    size_m: float
+    """``size * resolution`` [m], what ``min_frontier_size`` is compared with."""
+    centroid: tuple[float, float]
+    distance: float
+    """Path distance [m] to the nearest approach cell (``inf``: unreachable)."""
+    goal: tuple[float, float] | None
+    """The approach cell nearest the centroid (``None``: unreachable)."""
+    nearest: tuple[float, float] | None
+    """The approach cell nearest the robot by path."""
+    approach_rows: IntArray = field(default_factory=lambda: np.zeros(0, np.int64))
+    approach_cols: IntArray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    @property
+    def reachable(self) -> bool:
+        return math.isfinite(self.distance)
+
+    def points(self, view: GridView) -> FloatArray:
+        """``(size, 2)`` world centres of the frontier's cells."""
+        return view.centres(self.rows, self.cols)
+
+
+@dataclass(frozen=True)
+class FrontierSet:
+    """Result of :func:`find_frontiers`."""
+
+    reachable: list[Frontier]
+    unreachable: list[Frontier]
+    distances: FloatArray
+    """Path distance [m] from the robot to every cell (inf: unreachable)."""
+    start: tuple[int, int] | None
+    """The wavefront's start cell (the robot's, or the nearest traversable one)."""
+    mask: BoolArray
+    """Frontier cells after the blacklist, before the size filter."""
+    too_small: int = 0
+    """Frontiers dropped by ``min_frontier_size``."""
+
+    @property
+    def all(self) -> list[Frontier]:
+        return [*self.reachable, *self.unreachable]
+
+
+def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
+                   min_frontier_size: float = 0.5, frontier_reach: float = 0.3,
+                   start_search_radius: float = 1.0, blacklist: BoolArray | None = None,
+                   wavefront: Wavefront | None = None) -> FrontierSet:
+    """All frontiers of ``view`` seen from the robot at ``robot_xy`` (module docstring).
+
+    ``start_search_radius`` [m]: when the robot's cell is not traversable (it touches a
+    wall) the wavefront starts from the nearest traversable cell within this radius.
+    ``blacklist``: cells that may not be frontier cells.  Reachable frontiers come sorted
+    by distance.
+    """
+    res = view.resolution
+    wf = wavefront or Wavefront()
+    robot = view.cell_of(*robot_xy)
+    dist, start, _ = wf.distances_from_any(view.traversable, robot, res,
+                                           start_search_radius / res)
+    mask = frontier_cells(view)
+    if blacklist is not None:
+        mask &= ~blacklist
+    labels, n = ndimage.label(mask, structure=_EIGHT)
+    if n == 0:
+        return FrontierSet([], [], dist, start, mask)
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    keep = sizes * res >= min_frontier_size - 1e-9
+    keep[0] = False
+    too_small = int(n - keep[1:].sum())
+    # approach cells: reached traversable cells within frontier_reach of a kept frontier;
+    # each takes the label of the frontier cell nearest to it
+    kept_labels = np.where(keep[labels], labels, 0)
+    reach_cells = max(1, math.ceil(frontier_reach / res - 1e-9))
+    nearest_dist, (ir, ic) = ndimage.distance_transform_edt(kept_labels == 0,
+                                                            return_indices=True)
+    reached = np.isfinite(dist) & view.traversable & (nearest_dist <= reach_cells)
+    ar, ac = np.nonzero(reached)
+    alabel = kept_labels[ir[ar, ac], ic[ar, ac]]
+    order = np.argsort(alabel, kind="stable")
+    ar, ac, alabel = ar[order], ac[order], alabel[order]
+    bounds = np.searchsorted(alabel, np.arange(n + 2))
+    fr, fc = np.nonzero(kept_labels)
+    flab = kept_labels[fr, fc]
+    forder = np.argsort(flab, kind="stable")
+    fr, fc, flab = fr[forder], fc[forder], flab[forder]
+    fbounds = np.searchsorted(flab, np.arange(n + 2))
+    reachable: list[Frontier] = []
+    unreachable: list[Frontier] = []
+    for lab in np.flatnonzero(keep):
+        rows = fr[fbounds[lab]:fbounds[lab + 1]].astype(np.int64)
+        cols = fc[fbounds[lab]:fbounds[lab + 1]].astype(np.int64)
+        pts = view.centres(rows, cols)
+        centroid = (float(pts[:, 0].mean()), float(pts[:, 1].mean()))
+        rr = ar[bounds[lab]:bounds[lab + 1]].astype(np.int64)
+        cc = ac[bounds[lab]:bounds[lab + 1]].astype(np.int64)
+        if rr.size == 0:
+            unreachable.append(Frontier(int(lab), rows, cols, int(rows.size),
+                                        rows.size * res, centroid, math.inf, None, None))
+            continue
+        d = dist[rr, cc]
+        approach = view.centres(rr, cc)
+        k_near = int(np.argmin(d))
+        k_goal = int(np.argmin(np.hypot(approach[:, 0] - centroid[0],
+                                        approach[:, 1] - centroid[1])))
+        reachable.append(Frontier(
+            int(lab), rows, cols, int(rows.size), rows.size * res, centroid, float(d[k_near]),
+            (float(approach[k_goal, 0]), float(approach[k_goal, 1])),
+            (float(approach[k_near, 0]), float(approach[k_near, 1])), rr, cc))
+    reachable.sort(key=lambda f: f.distance)
+    return FrontierSet(reachable, unreachable, dist, start, mask, too_small)

@@ -1,0 +1,132 @@
+"""The exploration decision loop, run on true worlds with the idealised robot.
+
+The idealised robot (exploration/ideal.py) drives at the TurtleBot's speed with instant
+turns and a perfect 3.5 m lidar, so these runs take seconds; they check the decisions --
+finishing, what is reported as left, never stopping while a reachable frontier remains --
+on the exploration regression worlds.  The same worlds run on the full stack in
+tests/missions/test_explore_regressions.py.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from navstack.exploration import DecisionKind, ExploreParams, FrontierExplorer, GridView
+from navstack.exploration.ideal import IdealRobot, reachable_free_space, run_ideal
+from navstack.sim.worlds import load_world
+
+
+def _run(world: str, strategy: str):  # type: ignore[no-untyped-def]
+    w = load_world(world)
+    target = reachable_free_space(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                                  (w.spawn.x, w.spawn.y), 0.15, 3.5)
+    ex = FrontierExplorer(ExploreParams(strategy=strategy))
+    res = run_ideal(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                    (w.spawn.x, w.spawn.y), IdealRobot(), target, ex, max_time=600.0)
+    return res, ex
+
+
+@pytest.mark.parametrize("strategy", ["information_gain", "explore_lite", "nearest"])
+@pytest.mark.parametrize("world", ["arena", "explore_facing_wall", "explore_dead_end"])
+def test_regression_worlds_are_explored_completely(world: str, strategy: str) -> None:
+    res, ex = _run(world, strategy)
+    assert res.finished, res.reason
+    assert res.fractions[-1] >= 0.97
+    assert res.duration < 120.0
+    assert ex.stats.goals_sent >= 1
+
+
+@pytest.mark.parametrize("strategy", ["information_gain", "explore_lite"])
+def test_narrow_door_ends_naming_the_unreachable_frontier(strategy: str) -> None:
+    res, _ = _run("explore_narrow_door", strategy)
+    assert res.finished
+    assert res.duration < 120.0
+    assert "unreachable (no traversable path: behind an opening narrower than the robot)" \
+        in res.reason
+    # the reported frontier lies behind the gap (the wall is at y = 3.0)
+    where = res.reason.split("narrower than the robot): ")[1]
+    y = float(where.split("at (")[1].split(",")[1].split(")")[0])
+    assert y > 3.0
+
+
+def test_greedy_reference_explores_the_arena() -> None:
+    w = load_world("arena")
+    target = reachable_free_space(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                                  (w.spawn.x, w.spawn.y), 0.15, 3.5)
+    res = run_ideal(w.occupied, w.resolution, w.origin_x, w.origin_y,
+                    (w.spawn.x, w.spawn.y), IdealRobot(), target)
+    assert res.finished and res.fractions[-1] >= 0.97
+    assert res.time_to(0.9) < res.time_to(0.95) < res.duration
+    # the 5 Hz samples cut the path's corners: their chords are a little shorter
+    chords = sum(((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2) ** 0.5
+                 for a, b in itertools.pairwise(res.trajectory))
+    assert chords <= res.path_length <= 1.1 * chords
+
+
+def _one_frontier_view() -> GridView:
+    unknown = np.zeros((20, 40), bool)
+    unknown[:, 30:] = True
+    free = ~unknown
+    return GridView(unknown, free, free.copy(), 0.1)
+
+
+def test_a_failed_frontier_is_retried_once_before_exploration_ends() -> None:
+    view = _one_frontier_view()
+    ex = FrontierExplorer(ExploreParams(max_goal_attempts=2))
+    first = ex.plan(view, (0.5, 1.0, 0.0), 0.0)
+    assert first.kind is DecisionKind.SEND and first.target is not None
+    assert 2.65 <= first.target.goal[0] <= 2.95  # within frontier_reach of the frontier
+    ex.goal_finished("FAILED", "a person blocked the way", 5.0)
+    # the only frontier is blacklisted once: it is released and tried again, not dropped
+    second = ex.plan(view, (0.5, 1.0, 0.0), 6.0)
+    assert second.kind is DecisionKind.SEND
+    assert ex.stats.retries == 1
+    ex.goal_finished("FAILED", "a person blocked the way", 9.0)
+    done = ex.plan(view, (0.5, 1.0, 0.0), 10.0)
+    assert done.kind is DecisionKind.DONE
+    assert "1 blacklisted: frontier at (3.05, 1.00) (20 cells, tried 2x)" in done.reason
+    assert "tried 2x): navigation failed: a person blocked the way" in done.reason
+
+
+def test_progress_and_stuck_watchdogs_blacklist_the_goal() -> None:
+    view = _one_frontier_view()
+    ex = FrontierExplorer(ExploreParams(progress_timeout=30.0, stuck_timeout=15.0,
+                                        max_goal_attempts=1))
+    assert ex.plan(view, (0.5, 1.0, 0.0), 0.0).kind is DecisionKind.SEND
+    # the robot turns in place: no displacement for more than stuck_timeout
+    assert ex.plan(view, (0.5, 1.0, 1.0), 10.0).kind is DecisionKind.KEEP
+    stuck = ex.plan(view, (0.5, 1.0, 2.0), 16.0)
+    assert stuck.cancelled.startswith("the robot moved less than 0.25 m in 15 s")
+    assert stuck.kind is DecisionKind.DONE
+    # progress_timeout: the robot moves, but no closer to the goal
+    ex2 = FrontierExplorer(ExploreParams(progress_timeout=30.0, stuck_timeout=100.0,
+                                         max_goal_attempts=1))
+    assert ex2.plan(view, (0.5, 1.0, 0.0), 0.0).kind is DecisionKind.SEND
+    for k in range(1, 7):  # pacing up and down across the strip
+        d = ex2.plan(view, (0.5, 0.3 + 0.2 * (k % 2) * 7, 0.0), 6.0 * k)
+    assert d.cancelled.startswith("no progress toward it for 30 s (progress_timeout)")
+
+
+def test_information_gain_looks_ahead_to_the_next_target_near_its_goal() -> None:
+    """Within ``lookahead_distance`` of its goal the information-gain strategy sends the
+    next target (no stop at the viewpoint); the frontier it leaves is judged as reached."""
+    unknown = np.zeros((20, 40), bool)
+    unknown[:, :3] = True          # a frontier at x = 0.3 m ...
+    unknown[:, 37:] = True         # ... and one at x = 3.7 m
+    free = ~unknown
+    view = GridView(unknown, free, free.copy(), 0.1)
+    for ahead, expected in ((0.8, DecisionKind.SEND), (0.0, DecisionKind.KEEP)):
+        ex = FrontierExplorer(ExploreParams(strategy="information_gain",
+                                            lookahead_distance=ahead))
+        first = ex.plan(view, (2.6, 1.0, 0.0), 0.0)
+        assert first.kind is DecisionKind.SEND and first.target is not None
+        assert first.target.goal[0] > 3.0  # the near frontier, on the right
+        near = ex.plan(view, (first.target.goal[0] - 0.5, 1.0, 0.0), 1.0)
+        assert near.kind is expected
+        if ahead:
+            assert near.reason == "look-ahead" and near.target is not None
+            assert near.target.goal[0] < 1.0  # on to the left frontier
+            assert len(ex._arrivals) == 1  # the right one is judged like a reached goal

@@ -1,0 +1,136 @@
+"""Frontier search: explore_lite's definitions, path distances, reachability, blacklist."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navstack.core.msgs import Header, MapMetaData, OccupancyGrid, Point, Pose
+from navstack.exploration.blacklist import Blacklist
+from navstack.exploration.frontiers import find_frontiers, frontier_cells
+from navstack.exploration.grid_view import ExplorationError, GridView
+from navstack.exploration.wavefront import Wavefront
+
+RES = 0.1
+
+
+def view_from(rows: list[str], res: float = RES) -> GridView:
+    """'.' free, '#' obstacle, '?' unknown; row 0 is the top line (largest y)."""
+    chars = np.array([list(r) for r in rows[::-1]])
+    unknown = chars == "?"
+    free = chars == "."
+    return GridView(unknown, free, free.copy(), res)
+
+
+def test_frontier_cells_are_unknown_with_a_free_4_neighbour() -> None:
+    v = view_from(["??????",
+                   "?....?",
+                   "?.##.?",
+                   "??????"])
+    got = frontier_cells(v)
+    expected = np.zeros_like(got)
+    # row indices count from the bottom: bottom line is row 0
+    expected[0, 1:5] = [True, False, False, True]   # below '.', '#', '#', '.'
+    expected[1, 0] = expected[1, 5] = True
+    expected[2, 0] = expected[2, 5] = True
+    expected[3, 1:5] = True
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_distance_is_the_path_round_a_wall_not_the_straight_line() -> None:
+    # robot left of a wall; the frontier is just right of the wall, reached round its top
+    v = view_from(["...........",
+                   ".....#.....",
+                   ".....#.....",
+                   ".....#.....",
+                   ".....#....?",
+                   ".....#....?",
+                   ".....#....?",
+                   "######....?"])
+    fs = find_frontiers(v, (0.25, 0.25), min_frontier_size=0.3, frontier_reach=0.1)
+    assert len(fs.reachable) == 1
+    f = fs.reachable[0]
+    assert f.size == 4 and f.size_m == pytest.approx(0.4)
+    # straight line from (0.25, 0.25) to the approach column x = 0.95 is ~0.7 m; the
+    # way round the wall top (row 7) is much longer
+    assert f.distance > 1.3
+    ideal = fs.distances[3, 9]  # the approach cell nearest the wall top
+    assert f.distance == pytest.approx(ideal)
+    assert f.goal is not None and f.goal[0] == pytest.approx(0.95)
+
+
+def test_min_frontier_size_drops_short_frontiers() -> None:
+    v = view_from(["?...", "....", "....", "...."])
+    fs = find_frontiers(v, (0.25, 0.15), min_frontier_size=0.15)
+    assert fs.reachable == [] and fs.too_small == 1
+    fs = find_frontiers(v, (0.25, 0.15), min_frontier_size=0.1)
+    assert len(fs.reachable) == 1
+
+
+def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable() -> None:
+    rows = ["??????????",
+            "..........",
+            "####.#####",   # a one-cell gap: free but not traversable
+            "..........",
+            ".........."]
+    v0 = view_from(rows)
+    trav = v0.traversable.copy()
+    trav[2, 4] = False  # the gap cell is inside the inscribed band
+    v = GridView(v0.unknown, v0.free, trav, RES)
+    fs = find_frontiers(v, (0.05, 0.05), min_frontier_size=0.3, frontier_reach=0.1)
+    assert fs.reachable == []
+    assert len(fs.unreachable) == 1 and fs.unreachable[0].size == 10
+    assert not fs.unreachable[0].reachable and fs.unreachable[0].goal is None
+
+
+def test_robot_touching_a_wall_starts_from_the_nearest_traversable_cell() -> None:
+    v0 = view_from(["?????", ".....", ".....", "....."])
+    trav = v0.traversable.copy()
+    trav[0, 0] = False  # the robot's cell
+    v = GridView(v0.unknown, v0.free, trav, RES)
+    fs = find_frontiers(v, (0.05, 0.05), min_frontier_size=0.3, frontier_reach=0.1)
+    assert fs.start == (0, 1)  # the first of the two nearest, in row-major order
+    assert len(fs.reachable) == 1
+    # 0.1 m to the start cell, then two rows up to the approach cells under the frontier
+    assert fs.reachable[0].distance == pytest.approx(0.3, abs=1e-9)
+
+
+def test_blacklisted_cells_are_not_frontier() -> None:
+    v = view_from(["??????????", "..........", ".........."])
+    bl = Blacklist(tolerance=0.0)
+    bl.add(v.centres(np.full(5, 2), np.arange(5)), "aborted", 0.0)
+    fs = find_frontiers(v, (0.05, 0.05), min_frontier_size=0.3, blacklist=bl.mask(v))
+    assert len(fs.reachable) == 1 and fs.reachable[0].size == 5
+    assert set(fs.reachable[0].cols.tolist()) == {5, 6, 7, 8, 9}
+    # blacklisting overlapping cells again counts a second attempt
+    e = bl.add(v.centres(np.full(2, 2), np.arange(2)), "no progress", 1.0)
+    assert e.attempts == 2
+    assert [x.attempts for x in bl.release_retryable()] == [1]
+
+
+def test_wavefront_is_the_octile_distance_on_an_open_grid() -> None:
+    trav = np.ones((20, 30), dtype=bool)
+    d = Wavefront().distances(trav, (0, 0), 0.05)
+    r, c = np.mgrid[0:20, 0:30]
+    octile = (np.maximum(r, c) + (math.sqrt(2) - 1) * np.minimum(r, c)) * 0.05
+    np.testing.assert_allclose(d, octile, atol=1e-9)
+    cells = Wavefront()
+    cells.distances(trav, (0, 0), 0.05)
+    path = cells.path_to((19, 29))
+    assert tuple(path[0]) == (0, 0) and tuple(path[-1]) == (19, 29) and len(path) == 30
+
+
+def test_grid_view_from_costmap_topic_and_errors() -> None:
+    data = np.array([[-1, 0, 50], [99, 100, 10]], dtype=np.int8)
+    grid = OccupancyGrid(Header(3.0, "map"), MapMetaData(0.0, 0.05, 3, 2, Pose(Point(1.0, 2.0))),
+                         data.ravel())
+    v = GridView.from_occupancy(grid, occupied_threshold=100, lethal_threshold=99)
+    np.testing.assert_array_equal(v.unknown, data == -1)
+    np.testing.assert_array_equal(v.free, (data >= 0) & (data < 100))
+    np.testing.assert_array_equal(v.traversable, (data >= 0) & (data < 99))
+    assert (v.origin_x, v.origin_y, v.stamp) == (1.0, 2.0, 3.0)
+    assert v.cell_of(1.07, 2.01) == (0, 1)
+    with pytest.raises(ExplorationError, match="must have one shape"):
+        GridView(np.zeros((2, 2), bool), np.zeros((2, 3), bool), np.zeros((2, 2), bool), 0.1)

@@ -1,0 +1,108 @@
+"""Frontier ranking: explore_lite's cost formula, information gain, nearest frontier."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navstack.exploration.frontiers import find_frontiers
+from navstack.exploration.gain import visible_unknown
+from navstack.exploration.grid_view import GridView
+from navstack.exploration.params import ExploreParams
+from navstack.exploration.strategies import (
+    ExploreLiteCost,
+    InformationGainUtility,
+    NearestFrontier,
+    make_strategy,
+)
+
+RES = 0.1
+
+
+def corridor_view() -> GridView:
+    """A 6 m free strip; a short frontier (0.5 m) at the near end and a long one
+    (2.0 m) 4 m away, both opening onto unknown space."""
+    h, w = 30, 60
+    unknown = np.zeros((h, w), bool)
+    free = np.zeros((h, w), bool)
+    free[10:20, :] = True            # the strip, rows 10..19
+    unknown[20:, 0:5] = True         # unknown north of the strip's first 0.5 m
+    unknown[20:, 40:60] = True       # unknown north of x 4..6 m
+    free[20:, 5:40] = False
+    occupied = ~unknown & ~free
+    occupied[:10, :] = True
+    return GridView(unknown, free, free.copy(), RES)
+
+
+def test_explore_lite_cost_is_potential_times_distance_minus_gain_times_size() -> None:
+    v = corridor_view()
+    fs = find_frontiers(v, (0.25, 1.5), min_frontier_size=0.3)
+    assert len(fs.reachable) == 2
+    p = ExploreParams(strategy="explore_lite", potential_scale=0.5, gain_scale=1.0,
+                      orientation_scale=0.0)
+    ranked = ExploreLiteCost(p).rank(fs, v, (0.25, 1.5, 0.0))
+    for t in ranked:
+        assert t.score == pytest.approx(0.5 * t.frontier.distance - 1.0 * t.frontier.size_m)
+    # the course's potential_scale 1e-3: size wins, the far long frontier comes first
+    course = ExploreLiteCost(ExploreParams(strategy="explore_lite"))
+    assert course.rank(fs, v, (0.25, 1.5, 0.0))[0].frontier.size_m == pytest.approx(2.0)
+    # a strong potential_scale prefers the near short one
+    assert ranked[0].frontier.size_m == pytest.approx(0.5)
+    # orientation_scale adds |turn| to the goal: facing away from both, turn ~ pi/2
+    turned = ExploreLiteCost(p.updated(orientation_scale=1.0)).rank(fs, v, (0.25, 1.5, -1.0))
+    by_size = {round(t.frontier.size_m, 1): t for t in turned}
+    near = by_size[0.5]
+    gx, gy = near.goal
+    turn = abs(math.remainder(math.atan2(gy - 1.5, gx - 0.25) + 1.0, 2 * math.pi))
+    assert near.score == pytest.approx(0.5 * near.frontier.distance - 0.5 + turn)
+
+
+def test_information_gain_discounts_by_path_distance() -> None:
+    v = corridor_view()
+    fs = find_frontiers(v, (0.25, 1.5), min_frontier_size=0.3)
+    ig = InformationGainUtility(ExploreParams(distance_decay=0.35, sensor_range=3.5))
+    ranked = ig.rank(fs, v, (0.25, 1.5, 0.0))
+    assert len(ranked) == 2
+    for t in ranked:
+        assert t.score == pytest.approx(t.gain * math.exp(-0.35 * t.distance))
+        assert t.gain > 0
+    # more unknown area is visible from the long frontier; without decay it wins
+    flat = InformationGainUtility(ExploreParams(distance_decay=0.0)).rank(fs, v,
+                                                                         (0.25, 1.5, 0.0))
+    assert flat[0].frontier.size_m == pytest.approx(2.0)
+    assert flat[0].gain > flat[1].gain
+    # a steep decay prefers the near frontier
+    steep = InformationGainUtility(ExploreParams(distance_decay=2.0)).rank(fs, v,
+                                                                          (0.25, 1.5, 0.0))
+    assert steep[0].frontier.size_m == pytest.approx(0.5)
+
+
+def test_nearest_frontier_and_registry() -> None:
+    v = corridor_view()
+    fs = find_frontiers(v, (0.25, 1.5), min_frontier_size=0.3)
+    ranked = NearestFrontier(ExploreParams()).rank(fs, v, (0.25, 1.5, 0.0))
+    assert [t.frontier.size_m for t in ranked] == [pytest.approx(0.5), pytest.approx(2.0)]
+    assert ranked[0].goal == ranked[0].frontier.nearest
+    for name, cls in (("explore_lite", ExploreLiteCost), ("nearest", NearestFrontier),
+                      ("information_gain", InformationGainUtility)):
+        assert isinstance(make_strategy(ExploreParams(strategy=name)), cls)
+
+
+def test_visible_unknown_counts_cells_in_range_until_an_obstacle() -> None:
+    h = w = 41
+    unknown = np.ones((h, w), bool)
+    free = np.zeros((h, w), bool)
+    v = GridView(unknown, free, free.copy(), 0.1)
+    # all unknown, no obstacle: the disc of radius 1 m (10 cells) minus nothing
+    n = int(visible_unknown(v, np.array([20]), np.array([20]), 1.0, beams=720)[0])
+    assert abs(n - math.pi * 10.5 ** 2) < 0.08 * math.pi * 10.5 ** 2
+    # a wall ring at 3 cells stops every ray: only the inside counts
+    blocked = np.zeros((h, w), bool)
+    r, c = np.mgrid[0:h, 0:w]
+    ring = np.abs(np.hypot(r - 20, c - 20) - 3.0) < 0.75
+    blocked[ring] = True
+    inside = visible_unknown(v, np.array([20]), np.array([20]), 2.0, beams=720,
+                             blocked=blocked)[0]
+    assert inside <= int((np.hypot(r - 20, c - 20) < 3.0).sum())

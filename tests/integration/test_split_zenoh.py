@@ -1,0 +1,84 @@
+"""Robot and base as two OS processes over Zenoh on loopback (issue 21): a goal through
+the split stack with the robot's clock 30 s ahead, and the clock contract of
+``navstack check --link``."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from importlib import resources
+from pathlib import Path
+
+from tests.runtime.zenoh_helpers import free_port
+
+STACK = Path(str(resources.files("navstack") / "config" / "split_office.yaml"))
+ONE_GOAL = """\
+waypoints:
+  - name: Goal_1
+    position: {x: 2.5, y: 4.0, z: 0.0}
+order: [Goal_1]
+"""
+
+
+def _navstack(*args: str) -> list[str]:
+    return [sys.executable, "-m", "navstack.app", *args]
+
+
+def test_goal_through_the_split_with_the_robot_clock_30_s_ahead(tmp_path: Path) -> None:
+    port = free_port()
+    wp = tmp_path / "wp.yaml"
+    wp.write_text(ONE_GOAL)
+    env = dict(os.environ)
+    robot = subprocess.Popen(_navstack(
+        "robot", "--stack", str(STACK), "--listen", f"tcp/127.0.0.1:{port}", "--rate", "2",
+        "--clock-offset", "30", "--report", str(tmp_path / "robot.json")), env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        base = subprocess.run(_navstack(
+            "base", "--stack", str(STACK), "--connect", f"tcp/127.0.0.1:{port}", "--rate", "2",
+            "--waypoints", str(wp), "--goal-timeout", "60",
+            "--report", str(tmp_path / "base.json")), env=env, capture_output=True, text=True,
+            timeout=180)
+        robot_out, _ = robot.communicate(timeout=60)
+    finally:
+        if robot.poll() is None:
+            robot.kill()
+    assert base.returncode == 0, base.stdout + base.stderr
+    rep_b = json.loads((tmp_path / "base.json").read_text())
+    rep_r = json.loads((tmp_path / "robot.json").read_text())
+    assert rep_b["goals"][0]["status"] == "SUCCEEDED"
+    assert rep_r["collisions"] == 0
+    assert abs(rep_b["robot_offset_s"] - 30.0) < 0.005  # estimated within 5 ms
+    assert abs(rep_r["base_offset_s"] + 30.0) < 0.005
+    assert rep_b["clock_contract"]["ok"]  # 30 s off, but compensated
+    # the robot really drove to the goal (its true trajectory ends near it)
+    x, y = rep_r["trajectory"][-1][1:3]
+    assert ((x - 2.5) ** 2 + (y - 4.0) ** 2) ** 0.5 < 0.5
+    assert "[robot] done: 0 collisions" in robot_out
+
+
+def test_check_names_the_clock_contract_and_the_offset(tmp_path: Path) -> None:
+    port = free_port()
+    stack = tmp_path / "stack.yaml"
+    stack.write_text(STACK.read_text().replace("7447", str(port)))
+    robot = subprocess.Popen(_navstack(
+        "robot", "--stack", str(stack), "--clock-offset", "2.0", "--max-seconds", "90",
+        "--keep-running"),
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        bad = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
+                                       "--no-compensate", "--duration", "1"),
+                             capture_output=True, text=True, timeout=120)
+        good = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
+                                        "--duration", "1"),
+                              capture_output=True, text=True, timeout=120)
+    finally:
+        robot.kill()
+        robot.wait(timeout=10)
+    assert bad.returncode == 1, bad.stdout + bad.stderr
+    assert "failed: clock:robot" in bad.stdout
+    assert "+2000." in bad.stdout and "compensation is off" in bad.stdout
+    assert good.returncode == 0, good.stdout + good.stderr
+    assert "compensated on receipt" in good.stdout

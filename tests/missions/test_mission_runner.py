@@ -1,0 +1,113 @@
+"""The mission runner: SUCCEEDED / FAILED with the navigator's reason / CANCELED, the
+published mission state, and a cancel that stops the robot within one control cycle."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from py_trees.composites import Sequence
+
+from navstack.core.msgs import Pose2D, String, Twist
+from navstack.interfaces.stack import NavStack
+from navstack.missions import (
+    Mission,
+    MissionContext,
+    MissionRunner,
+    MissionStatus,
+    NavigateToPose,
+    RememberHome,
+    ReturnHome,
+    WaitFor,
+)
+from navstack.missions.mission import MISSION_STATE_TOPIC
+from navstack.runtime.bus import LATCHED, QoS
+
+TB3 = "turtlebot3_waffle_pi"
+
+
+def tb3_stack() -> NavStack:
+    from navstack.interfaces.mission_catalog import default_nav2_params
+
+    return NavStack("arena", TB3, default_nav2_params(TB3), seed=3).start()
+
+
+def test_a_mission_succeeds_and_publishes_its_state() -> None:
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    states: list[dict[str, object]] = []
+    stack.runtime.bus.subscribe(MISSION_STATE_TOPIC, String,
+                                lambda m: states.append(json.loads(m.data)), LATCHED)
+    root = Sequence("go", memory=True, children=[
+        RememberHome(ctx), NavigateToPose(ctx, Pose2D(2.0, 1.9, 0.0), name="Centre"),
+        ReturnHome(ctx)])
+    runner = MissionRunner(stack.runtime, Mission("go-and-back", root, ctx))
+    result = runner.run(timeout=120.0)
+    assert result.status is MissionStatus.SUCCEEDED, result.reason
+    assert result.reason == ""
+    p, s = stack.sim.sim.pose, stack.description.spawn
+    assert math.hypot(p.x - s.x, p.y - s.y) <= 0.3
+    statuses = [st["status"] for st in states]
+    assert statuses[0] == "RUNNING" and statuses[-1] == "SUCCEEDED"
+    assert any(st["behaviour"] == "Centre" and "m to go" in str(st["feedback"])
+               for st in states)
+    assert any(text.startswith("ReturnHome: home within") for _, text in result.events)
+    assert stack.sim.sim.collisions == 0
+
+
+def test_a_navigation_failure_ends_the_mission_failed_with_the_navigators_reason() -> None:
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    # (2.5, 1.1) is inside the 0.4 m box in the middle of the arena
+    root = Sequence("bad", memory=True, children=[
+        NavigateToPose(ctx, Pose2D(2.5, 1.1, 0.0), name="IntoTheBox")])
+    result = MissionRunner(stack.runtime, Mission("bad", root, ctx)).run(timeout=400.0)
+    assert result.status is MissionStatus.FAILED
+    nav = stack.runtime.bus.action_servers["/navigate_to_pose"].goals[-1].result
+    assert nav is not None and nav.error_msg
+    assert result.reason == f"IntoTheBox: FAILED: {nav.error_msg}"
+    assert nav.error_msg.startswith(("could not reach the goal", "no path to the goal"))
+
+
+def test_cancel_stops_the_robot_within_one_control_cycle() -> None:
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    cmds: list[tuple[float, float, float]] = []
+    stack.runtime.bus.subscribe("/cmd_vel", Twist, lambda t: cmds.append(
+        (stack.now, t.linear.x, t.angular.z)), QoS(depth=50))
+    root = Sequence("far", memory=True, children=[
+        NavigateToPose(ctx, Pose2D(3.3, 3.3, 0.0), name="Far")])
+    runner = MissionRunner(stack.runtime, Mission("far", root, ctx)).start()
+    stack.run_for(6.0)
+    assert stack.sim.sim.state.vx > 0.05  # driving
+    period = 1.0 / 10.0  # the TurtleBot's controller_frequency
+    stack.run_for(0.0)  # deliver everything published before the cancel
+    t_cancel, before = stack.now, len(cmds)
+    runner.cancel("operator abort")
+    stack.run_for(1.0)
+    assert runner.result is not None and runner.result.status is MissionStatus.CANCELED
+    assert runner.result.reason == "operator abort"
+    after = cmds[before:]
+    assert after and after[0][0] - t_cancel <= period
+    assert after[0][1:] == (0.0, 0.0)                      # the first command is a stop
+    assert all(c[1:] == (0.0, 0.0) for c in after)          # and nothing moves it again
+    assert abs(stack.sim.sim.state.vx) < 1e-3 and abs(stack.sim.sim.state.wz) < 1e-3
+    assert stack.navigator.active_goal is None              # the navigation goal is gone
+
+
+def test_max_duration_and_wait_for_timeout_fail_with_a_reason() -> None:
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    never = Sequence("w", memory=True, children=[
+        WaitFor(ctx, lambda: False, 2.0, "a door to open", name="Door")])
+    result = MissionRunner(stack.runtime, Mission("w", never, ctx)).run(timeout=10.0)
+    assert result.status is MissionStatus.FAILED
+    assert result.reason == "Door: a door to open did not happen within 2 s"
+    slow = Sequence("s", memory=True, children=[
+        WaitFor(ctx, lambda: False, 100.0, "forever", name="Forever")])
+    result = MissionRunner(stack.runtime, Mission("s", slow, ctx), max_duration=3.0,
+                           name="mission2").run(timeout=10.0)
+    assert result.status is MissionStatus.FAILED
+    assert result.reason == "did not finish within max_duration 3 s"
+    assert result.duration == pytest.approx(3.1, abs=0.11)
