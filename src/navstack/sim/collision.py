@@ -326,3 +326,14 @@ def footprint_clearance(world: World, polygon_world: FloatArray, t: MovingTime,
     (the smaller of :func:`footprint_clearances`)."""
     static, moving = footprint_clearances(world, polygon_world, t, max_dist)
     return static if moving is None else min(static, moving)
+
+
+def polygons_distance(a: FloatArray, b: FloatArray, max_dist: float = math.inf) -> float:
+    """Distance [m] between two closed simple polygons ``(N, 2)`` and ``(M, 2)`` (any vertex
+    counts), 0 when they touch or overlap, capped at ``max_dist`` (robot-robot clearance
+    in a fleet)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    if polygon_hits_moving(a, np.zeros((0, 3)), b[None]):
+        return 0.0
+    return min(float(max_dist), float(_polygons_distance(a, b)))
