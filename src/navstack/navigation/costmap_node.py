@@ -2,11 +2,12 @@
 
 Subscribes the static map (``map_topic``, latched) and every observation source's topic
 (LaserScan, or PointCloud2 for ``data_type: PointCloud2``), looks up the sensor pose in
-the costmap's ``global_frame`` at the scan's stamp through TF -- a scan waits in a TF
-message filter until the odometry of its instant is in the buffer, at most the obstacle
-layer's ``tf_filter_tolerance`` (Nav2's ``tf2_ros::MessageFilter``; without it a scan
-stamped at the same instant as the odometry that has not been delivered yet was dropped,
-up to every scan for seconds at a time) -- updates the layers at
+the costmap's ``global_frame`` at the scan's stamp through TF -- with the obstacle
+layer's ``tf_message_filter`` a scan waits in a TF message filter until the odometry of
+its instant is in the buffer, at most ``tf_filter_tolerance`` (Nav2's
+``tf2_ros::MessageFilter``); without it a scan stamped at the same instant as an odometry
+sample not delivered yet is dropped, up to every scan for seconds at a time -- updates
+the layers at
 ``update_frequency`` around the robot pose (``global_frame`` <- ``robot_base_frame``),
 publishes the master grid as an
 OccupancyGrid on ``/<name>/costmap`` at ``publish_frequency`` and offers the Nav2 clear
@@ -97,6 +98,11 @@ class CostmapNode(Node):
                         self.create_subscription(topic, PointCloud2,
                                                  partial(self._on_cloud, layer, src), SENSOR_DATA)
                         continue
+                    if not layer.params.tf_message_filter:
+                        self.create_subscription(topic, LaserScan,
+                                                 partial(self._on_scan, layer, src),
+                                                 SENSOR_DATA)
+                        continue
                     scans: TfMessageFilter[LaserScan, tuple[Pose2D, float]] = TfMessageFilter(
                         self, self._scan_pose, partial(self._add_scan, layer, src),
                         queue_size=10, timeout=layer.params.tf_filter_tolerance,
@@ -148,6 +154,15 @@ class CostmapNode(Node):
     def _window_bounds(self) -> tuple[float, float, float, float]:
         cm = self.costmap
         return (cm.origin_x, cm.origin_y, cm.origin_x + cm.size_x_m, cm.origin_y + cm.size_y_m)
+
+    def _on_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan) -> None:
+        """A scan without the TF filter: dropped (counted) when TF cannot place it now."""
+        try:
+            pose = self._scan_pose(scan)
+        except TransformError as exc:
+            self.tf_failed(exc)
+            return
+        self._add_scan(layer, source, scan, pose)
 
     def _scan_pose(self, scan: LaserScan) -> tuple[Pose2D, float]:
         """The sensor pose in ``global_frame`` at the scan's stamp and its height
