@@ -17,7 +17,7 @@ from py_trees.common import Status
 from navstack.core.msgs import Joy, Pose2D, String, Twist
 from navstack.interfaces.rover import RoverRun, rover_run
 from navstack.missions.rover_behaviours import segment_crossing
-from navstack.missions.rover_context import PostEstimate, TaskStatus
+from navstack.missions.rover_context import PostEstimate, RoverTask, TaskStatus
 from navstack.missions.rover_tree import GoToGpsRequest, GoToRequest
 from navstack.nodes.teleop import TeleopNode, TeleopNodeParams
 from navstack.runtime.bus import LATCHED
@@ -190,3 +190,25 @@ def test_joystick_takeover_pauses_and_a_mission_command_resumes(run: RoverRun) -
     assert any("task paused" in e for _, e in mission.ctx.events)
     assert [m.data for m in modes][-1] == "success"
     assert "teleop" in [m.data for m in modes]
+
+
+def test_one_gate_post_seen_circles_it_until_the_other_is_seen(run: RoverRun) -> None:
+    """gate_control with only post 8 known (its sightings injected while both posts are
+    beyond the camera's 16 m): rotate_gate drives towards the circle points round post 8
+    until post 9 is seen, then pass_gate goes through."""
+    stack, mission = run.stack, run.mission
+    ox, oy = _odom(30.0, 13.0)
+    now = stack.now
+    mission.ctx.tracker.posts[8] = PostEstimate(8, [(now, ox, oy, 5.0)] * 3)
+    assert not mission.ctx.tracker.seen(9)
+    mission.bb.begin(RoverTask("g2", (8, 9), xy=_odom(4.0, 15.0)), now)
+    mission.bb.goal_reached = True  # the search starts here, no spiral points
+    _run_task(run, 120.0)
+    bb = mission.bb
+    assert bb.status is TaskStatus.SUCCEEDED, bb.reason
+    events = [e for _, e in mission.ctx.events]
+    assert "rotate_gate: gate post 8 seen, circling it for the other" in events
+    assert not bb.gate_circled  # the other post showed up before the fourth point
+    crossings = [c for c in run.truth.crossings if c["gate"] == "g"]
+    assert crossings and crossings[-1]["heading_off_normal_deg"] <= 45.0
+    assert stack.sim.sim.collisions == 0
