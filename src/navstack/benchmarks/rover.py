@@ -22,8 +22,8 @@ and wheel odometry.
 The post and gate rows of item 3 run the rover's behaviour tree
 (:class:`~navstack.missions.rover_tree.RoverMission`) with the camera and ArUco chain
 (corners mode: projected corners with 0.3 px noise through the detector's PnP): per seed a
-post leg (``post_1`` on even seeds, ``post_2`` on odd; each post 14-16 m from its
-coordinate) and the gate leg ``gate_a``, each from its course ``start`` 18-24 m away:
+post leg (``post_1``, ``post_2``, ``post_3`` in turn; posts 14.1, 15.8 and 19.0 m from their
+coordinates) and the gate leg ``gate_a``, each from its course ``start`` 18-24 m away:
 calibration drive, GPS leg, spiral search, approach / gate pass
 (:func:`navstack.interfaces.rover.run_leg`).  A post leg passes with the post within 2 m
 of ``base_link`` at the end, a gate leg when the rover crossed the segment between the
@@ -50,6 +50,8 @@ LEG_PASS_M = 3.0
 SEEDS = tuple(range(20))
 QUICK_SEEDS = (0, 1, 2)
 SETTLE_S = 2.0
+POST_LEGS = ("post_1", "post_2", "post_3")
+"""The course's post legs, their posts 14.1, 15.8 and 19.0 m from the coordinate."""
 
 
 @dataclass
@@ -169,15 +171,14 @@ def run_gps_waypoints(seed: int = 0, course_file: str | Path | None = None,
 def run_search_legs(seed: int, legs: tuple[str, ...] | None = None,
                     course_file: str | Path | None = None, timeout: float = 400.0
                     ) -> list[dict[str, Any]]:
-    """The post leg of ``seed`` (``post_1`` even, ``post_2`` odd) and ``gate_a``, each on a
-    fresh stack at the leg's ``start``; one row per leg (:meth:`LegOutcome.row` + seed)."""
+    """The post leg of ``seed`` (``POST_LEGS[seed % 3]``) and ``gate_a``, each on a fresh
+    stack at the leg's ``start``; one row per leg (:meth:`LegOutcome.row` + seed)."""
     from navstack.core.msgs import Pose2D
     from navstack.interfaces.rover import rover_run, run_leg
     from navstack.sim.course import load_course
 
     course = load_course(course_file)
-    names = legs if legs is not None else (("post_1" if seed % 2 == 0 else "post_2"),
-                                           "gate_a")
+    names = legs if legs is not None else (POST_LEGS[seed % len(POST_LEGS)], "gate_a")
     rows = []
     for name in names:
         leg = course.leg(name)

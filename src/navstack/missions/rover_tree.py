@@ -287,7 +287,7 @@ class RoverMission(Node):
                                      req.latitude, req.longitude))
 
     def _srv_stop(self, _req: Any = None) -> dict[str, Any]:
-        self._halt()
+        self._halt(at_once=True)
         if self.bb.status in (TaskStatus.RUNNING, TaskStatus.PAUSED):
             self.ctx.log("mission stopped: state cleared")
         self.bb.reset()
@@ -339,16 +339,17 @@ class RoverMission(Node):
 
     def _pause(self, why: str) -> None:
         if self.bb.status is TaskStatus.RUNNING:
-            self._halt()
+            self._halt(at_once=True)
             self.bb.status = TaskStatus.PAUSED
             self.pauses += 1
             self.ctx.log(f"task paused: {why}")
             self._publish()
 
-    def _halt(self) -> None:
-        """Stop the tree: every running goal is cancelled (the behaviours' terminate)."""
+    def _halt(self, at_once: bool = False) -> None:
+        """Stop the tree: every running goal is cancelled (the behaviours' terminate);
+        ``at_once`` (stop mission, a pause) also stops the velocity smoother's ramp."""
         self.root.stop(Status.INVALID)
-        self.ctx.stop_robot()
+        self.ctx.stop_robot(at_once=at_once)
 
     def _estop_tick(self) -> None:
         if self.now < self._estop_until:
