@@ -33,6 +33,7 @@ from navstack.core.plugins import PLANNERS
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 from navstack.navigation.costmap_node import CostmapNode
+from navstack.planning.footprint_path import plan_footprint_checked
 from navstack.navigation.messages import (
     COMPUTE_PATH_TO_POSE,
     IS_PATH_VALID,
@@ -62,6 +63,19 @@ class PlannerServerParams(Params):
     planner_plugins: list[str] = Field(default_factory=lambda: ["GridBased"])
     use_sim_time: bool = True
     plan_topic: str = "/plan"
+    # navstack: check the oriented footprint along each path and replan around the points
+    # where the body does not fit (planning/footprint_path.py; off = Nav2's behaviour)
+    footprint_check: bool = False
+    """Check each path with the oriented, ``footprint_check_margin``-grown footprint and
+    replan around gaps the body does not fit (for bodies whose axle is not centred)."""
+    footprint_check_margin: float = Field(0.05, ge=0.0)
+    """Tracking margin added to the (padded) footprint for the check [m]."""
+    footprint_check_replans: int = Field(8, ge=0)
+    """Replans with a blocked disc at the first misfit before keeping the first path."""
+    footprint_check_block_radius: float = Field(0.1, gt=0.0)
+    """Radius of the disc marked lethal around a misfit for the replan [m]."""
+    footprint_check_shift: float = Field(0.15, ge=0.0)
+    """A pose is a misfit only if no sideways shift up to this fits either [m]."""
 
 
 _KNOWN = set(PlannerServerParams.model_fields)
@@ -82,6 +96,7 @@ class PlannerServer(Node):
         self.params = PlannerServerParams.from_mapping(server, file=file, key_path=name)
         self.global_costmap = global_costmap
         body = footprint if footprint is not None else global_costmap.layered.footprint
+        self.footprint = body
         self.planners: dict[str, GlobalPlanner] = {}
         for pname in self.params.planner_plugins:
             key = f"{name}.{pname}"
@@ -95,6 +110,8 @@ class PlannerServer(Node):
             planner.use_simulated_time(runtime.scheduler.mode == "sim")
             self.planners[pname] = planner
         self.plans_computed = 0
+        self.footprint_replans = 0
+        """Paths replaced because the footprint did not fit (``footprint_check``)."""
         self.last_path: Path | None = None
 
     def on_configure(self) -> None:
@@ -136,7 +153,19 @@ class PlannerServer(Node):
         else:
             start_pose = self.tf.lookup_pose2d(frame, node.robot_base_frame)
         planner = self.planners[planner_id or next(iter(self.planners))]
-        path = planner.plan(start_pose, goal_pose, node.costmap)
+        p = self.params
+        if p.footprint_check and self.footprint is not None:
+            checked = plan_footprint_checked(
+                lambda cm: planner.plan(start_pose, goal_pose, cm), node.costmap,
+                self.footprint, margin=p.footprint_check_margin,
+                replans=p.footprint_check_replans,
+                block_radius=p.footprint_check_block_radius,
+                shift=p.footprint_check_shift)
+            path = checked.path
+            if checked.clear and checked.blocked:
+                self.footprint_replans += 1
+        else:
+            path = planner.plan(start_pose, goal_pose, node.costmap)
         self.plans_computed += 1
         self.last_path = path
         self.pub_plan.publish(path)
