@@ -147,3 +147,24 @@ def test_planner_server_footprint_check_options_are_validated() -> None:
         PlannerServerParams.from_mapping({"footprint_check_margin": -0.1})
     with pytest.raises(ConfigError, match="footprint_check_block_radius"):
         PlannerServerParams.from_mapping({"footprint_check_block_radius": 0.0})
+
+
+@pytest.mark.parametrize("check", [False, True])
+def test_planner_server_plans_round_the_gap_with_footprint_check(check: bool) -> None:
+    from navstack.core.msgs import PoseStamped
+    from navstack.navigation.costmap_node import CostmapNode
+    from navstack.navigation.planner_server import PlannerServer
+    from navstack.runtime.node import Runtime
+    from navstack.runtime.scheduler import Scheduler
+
+    rt = Runtime(Scheduler("sim"))
+    node = CostmapNode(rt, "global_costmap", {"global_frame": "map", "width": 4, "height": 3,
+                                              "resolution": RES, "plugins": []})
+    node.costmap.data[:] = arena(1.78).data
+    server = PlannerServer(rt, {"footprint_check": check}, node, footprint=WAFFLE)
+    server.configure()
+    path = server.compute_path(PoseStamped.from_pose2d(GOAL, "map"),
+                               PoseStamped.from_pose2d(START, "map"))
+    y = crossing_y(path.as_array()[:, :2])
+    assert (y > 1.93) if check else (1.2 < y < 1.63)
+    assert server.footprint_replans == int(check)

@@ -33,7 +33,6 @@ from navstack.core.plugins import PLANNERS
 from navstack.core.polygon import Footprint
 from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 from navstack.navigation.costmap_node import CostmapNode
-from navstack.planning.footprint_path import plan_footprint_checked
 from navstack.navigation.messages import (
     COMPUTE_PATH_TO_POSE,
     IS_PATH_VALID,
@@ -41,6 +40,7 @@ from navstack.navigation.messages import (
     PlannerErrorCode,
 )
 from navstack.navigation.plugins import load_plugin, plugin_section
+from navstack.planning.footprint_path import plan_footprint_checked
 from navstack.runtime.actions import ActionServer, GoalHandle
 from navstack.runtime.bus import LATCHED
 from navstack.runtime.node import Node, Runtime

@@ -74,7 +74,7 @@ def densify(xy: FloatArray, step: float) -> FloatArray:
     seg = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
     parts = [xy[:1]]
     for i, length in enumerate(seg):
-        k = max(1, int(math.ceil(length / step)))
+        k = max(1, math.ceil(length / step))
         t = np.arange(1, k + 1)[:, None] / k
         parts.append(xy[i] + t * (xy[i + 1] - xy[i]))
     return np.vstack(parts)
@@ -104,7 +104,7 @@ def first_footprint_collision(costmap: Costmap2D, xy: FloatArray, footprint: Foo
     hit = np.nonzero(footprint_costs(costmap, poses, body) == LETHAL_OBSTACLE)[0]
     if len(hit) == 0:
         return None
-    n = max(1, int(math.ceil(shift / (0.5 * costmap.resolution))))
+    n = max(1, math.ceil(shift / (0.5 * costmap.resolution)))
     offsets = np.linspace(-shift, shift, 2 * n + 1) if shift > 0 else np.zeros(1)
     th = poses[hit, 2][:, None]
     shifted = np.stack((poses[hit, 0][:, None] - offsets * np.sin(th),
@@ -175,8 +175,8 @@ def _block_disc(costmap: Costmap2D, x: float, y: float, radius: float) -> None:
     cx = (x - costmap.origin_x) / res
     cy = (y - costmap.origin_y) / res
     r = radius / res
-    x0, x1 = max(0, int(math.floor(cx - r))), min(costmap.size_x, int(math.ceil(cx + r)) + 1)
-    y0, y1 = max(0, int(math.floor(cy - r))), min(costmap.size_y, int(math.ceil(cy + r)) + 1)
+    x0, x1 = max(0, math.floor(cx - r)), min(costmap.size_x, math.ceil(cx + r) + 1)
+    y0, y1 = max(0, math.floor(cy - r)), min(costmap.size_y, math.ceil(cy + r) + 1)
     if x0 >= x1 or y0 >= y1:
         return
     gx, gy = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
