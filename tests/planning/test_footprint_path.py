@@ -8,14 +8,15 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
-from navstack.core.errors import ConfigError
-from navstack.core.msgs import Pose2D
+from navstack.core.errors import ConfigError, NoValidPath
+from navstack.core.msgs import Path, Pose2D
 from navstack.core.polygon import Footprint
-from navstack.costmap.costmap_2d import LETHAL_OBSTACLE, Costmap2D
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, Costmap2D
 from navstack.navigation.planner_server import PlannerServerParams
 from navstack.planning.footprint_path import (
     densify,
     first_footprint_collision,
+    footprint_misfits,
     path_headings,
     plan_footprint_checked,
 )
@@ -147,6 +148,35 @@ def test_planner_server_footprint_check_options_are_validated() -> None:
         PlannerServerParams.from_mapping({"footprint_check_margin": -0.1})
     with pytest.raises(ConfigError, match="footprint_check_block_radius"):
         PlannerServerParams.from_mapping({"footprint_check_block_radius": 0.0})
+
+
+def lowest_free_line(cm: Costmap2D) -> Path:
+    """A planner of straight lines from x = 1 to 3 m: the lowest y >= 1.3 m whose cells
+    are all below INSCRIBED_INFLATED_OBSTACLE (what NavFn may cross)."""
+    for y in np.arange(1.3, 2.9, RES):
+        xs = np.arange(1.0, 3.0 + 1e-9, 0.5 * RES)
+        mx, my, _ = cm.world_to_map_array(np.column_stack((xs, np.full_like(xs, y))))
+        if np.all(cm.data[my, mx] < INSCRIBED_INFLATED_OBSTACLE):
+            return Path.from_array(np.column_stack((xs, np.full_like(xs, y),
+                                                    np.zeros_like(xs))))
+    raise NoValidPath("no free line")
+
+
+def test_a_path_that_hugs_an_obstacle_is_pushed_off_it() -> None:
+    cm = arena(None)
+    first = lowest_free_line(cm).as_array()
+    y0 = float(first[0, 1])
+    assert y0 <= 1.35  # at most 0.15 m over the partition's end
+    hugs = footprint_misfits(cm, np.ascontiguousarray(first[:, :2]), WAFFLE, 0.05, 0.15,
+                             0.15, 0.25, 0.15)
+    assert hugs and all(m.shift is not None and m.shift > 0 for m in hugs)
+    needed = max(m.shift for m in hugs if m.shift is not None)
+    result = plan_footprint_checked(lowest_free_line, cm, WAFFLE)
+    assert result.clear and result.gap_free and result.replaced
+    y = float(result.path.as_array()[0, 1])
+    assert y0 + needed - 1e-9 <= y <= y0 + needed + 2 * RES  # pushed, not detoured
+    # the discs (radius 0.1 m) lie between the partition and the new path
+    assert result.blocked and all(y0 <= by and by + 0.1 <= y + 1e-9 for _, by in result.blocked)
 
 
 @pytest.mark.parametrize("check", [False, True])

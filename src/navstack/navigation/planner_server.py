@@ -66,16 +66,19 @@ class PlannerServerParams(Params):
     # navstack: check the oriented footprint along each path and replan around the points
     # where the body does not fit (planning/footprint_path.py; off = Nav2's behaviour)
     footprint_check: bool = False
-    """Check each path with the oriented, ``footprint_check_margin``-grown footprint and
-    replan around gaps the body does not fit (for bodies whose axle is not centred)."""
+    """navstack: check each path with the oriented, ``footprint_check_margin``-grown
+    footprint; replan around gaps the body does not fit and off obstacles it hugs (for
+    bodies whose axle is not centred)."""
     footprint_check_margin: float = Field(0.05, ge=0.0)
-    """Tracking margin added to the (padded) footprint for the check [m]."""
+    """navstack: tracking margin added to the (padded) footprint for the check [m]."""
     footprint_check_replans: int = Field(8, ge=0)
-    """Replans with a blocked disc at the first misfit before keeping the first path."""
+    """navstack: replans (with discs marked lethal in a copy of the costmap) before the
+    best path so far is kept."""
     footprint_check_block_radius: float = Field(0.1, gt=0.0)
-    """Radius of the disc marked lethal around a misfit for the replan [m]."""
+    """navstack: radius [m] of the discs marked lethal to close a gap or push a path."""
     footprint_check_shift: float = Field(0.15, ge=0.0)
-    """A pose is a misfit only if no sideways shift up to this fits either [m]."""
+    """navstack: largest sideways shift [m] tried: a misfit that no shift fits is a gap,
+    else a hug."""
 
 
 _KNOWN = set(PlannerServerParams.model_fields)
@@ -162,7 +165,7 @@ class PlannerServer(Node):
                 block_radius=p.footprint_check_block_radius,
                 shift=p.footprint_check_shift)
             path = checked.path
-            if checked.clear and checked.blocked:
+            if checked.replaced:
                 self.footprint_replans += 1
         else:
             path = planner.plan(start_pose, goal_pose, node.costmap)

@@ -14,15 +14,21 @@ cheap form of it for the grid planners:
 
 * :func:`path_headings`: the heading the robot has along the path (the chord over
   ``+-window`` metres, what a pure-pursuit follower drives);
-* :func:`first_footprint_collision`: the first pose whose footprint, grown by a tracking
-  ``margin``, covers a ``LETHAL_OBSTACLE`` cell (poses within ``skip_start`` of the start
-  and ``skip_goal`` of the goal are not judged: the robot is already there, or turns in
-  place onto the goal heading there);
-* :func:`plan_footprint_checked`: plan; while the path has such a pose, mark a disc of
-  ``block_radius`` around it LETHAL in a copy of the costmap and plan again (up to
-  ``replans`` times).  The first collision-free path is returned; if none is found (the
-  goal lies beyond the only gap) the planner's own first path is, so the check never
-  turns a reachable goal into a failure.
+* :func:`footprint_misfits`: the poses whose footprint, grown by a tracking ``margin``,
+  covers a ``LETHAL_OBSTACLE`` cell (poses within ``skip_start`` of the start and
+  ``skip_goal`` of the goal are not judged: the robot is already there, or turns in place
+  onto the goal heading there), each with the smallest sideways shift (up to ``shift``)
+  that fits -- none for a *gap* too narrow for the body, one for a path that *hugs* an
+  obstacle (pure pursuit cuts such a curve towards the obstacle);
+  :func:`first_footprint_collision` is the first gap;
+* :func:`plan_footprint_checked`: plan; while the path has a gap, mark a disc of
+  ``block_radius`` around its first one LETHAL in a copy of the costmap and plan again;
+  once it has none, push it off the obstacles it hugs (a disc on the obstacle's side of
+  each hug, reaching past the shift that fits; the copy is not re-inflated, so the
+  planner skirts the disc itself) and plan again -- up to ``replans``
+  times in all.  The first path that fits everywhere is returned, else the first
+  without gaps, else the planner's own first path (the goal lies beyond the only gap):
+  the check never turns a reachable goal into a failure.
 """
 
 from __future__ import annotations
@@ -42,8 +48,8 @@ from navstack.costmap.footprint import footprint_costs
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["FootprintCheckResult", "densify", "first_footprint_collision", "path_headings",
-           "plan_footprint_checked"]
+__all__ = ["FootprintCheckResult", "Misfit", "densify", "first_footprint_collision",
+           "footprint_misfits", "path_headings", "plan_footprint_checked"]
 
 
 def path_headings(xy: FloatArray, window: float) -> FloatArray:
@@ -80,30 +86,40 @@ def densify(xy: FloatArray, step: float) -> FloatArray:
     return np.vstack(parts)
 
 
-def first_footprint_collision(costmap: Costmap2D, xy: FloatArray, footprint: Footprint,
-                              margin: float, window: float, skip_start: float,
-                              skip_goal: float, shift: float = 0.0
-                              ) -> tuple[float, float] | None:
-    """The first point (x, y) of the path ``xy`` ``(N, 2)`` (densified to half a cell)
-    where ``footprint`` grown by ``margin`` and turned to :func:`path_headings` covers a
-    lethal cell and still does when moved sideways by any offset up to ``shift`` (in
-    half-cell steps): a gap too narrow for the body, not a path that merely hugs an
-    obstacle the follower can keep off (module docstring); None if there is none."""
+@dataclass(frozen=True)
+class Misfit:
+    """A path pose (x, y, theta) where the grown footprint covers a lethal cell;
+    ``shift`` is the smallest sideways shift (positive to the left) at which it fits, None
+    if none up to the limit does (a gap)."""
+
+    x: float
+    y: float
+    theta: float
+    shift: float | None
+
+
+def footprint_misfits(costmap: Costmap2D, xy: FloatArray, footprint: Footprint,
+                      margin: float, window: float, skip_start: float, skip_goal: float,
+                      shift: float = 0.0) -> list[Misfit]:
+    """The misfits of the path ``xy`` ``(N, 2)`` (densified to half a cell) in path order:
+    poses where ``footprint`` grown by ``margin`` and turned to :func:`path_headings`
+    covers a lethal cell, with the smallest sideways shift in half-cell steps up to
+    ``shift`` that fits (module docstring)."""
     if len(xy) == 0:
-        return None
+        return []
     xy = densify(xy, 0.5 * costmap.resolution)
     d_start = np.hypot(xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1])
     d_goal = np.hypot(xy[:, 0] - xy[-1, 0], xy[:, 1] - xy[-1, 1])
     judged = np.nonzero((d_start > skip_start) & (d_goal > skip_goal))[0]
     if len(judged) == 0:
-        return None
+        return []
     body = Footprint.from_polygon(footprint.polygon, padding=margin) if margin > 0 \
         else footprint
     theta = path_headings(xy, window)[judged]
     poses = np.column_stack((xy[judged], theta))
     hit = np.nonzero(footprint_costs(costmap, poses, body) == LETHAL_OBSTACLE)[0]
     if len(hit) == 0:
-        return None
+        return []
     n = max(1, math.ceil(shift / (0.5 * costmap.resolution)))
     offsets = np.linspace(-shift, shift, 2 * n + 1) if shift > 0 else np.zeros(1)
     th = poses[hit, 2][:, None]
@@ -111,62 +127,130 @@ def first_footprint_collision(costmap: Costmap2D, xy: FloatArray, footprint: Foo
                         poses[hit, 1][:, None] + offsets * np.cos(th),
                         np.broadcast_to(th, (len(hit), len(offsets)))), axis=-1)
     cost = footprint_costs(costmap, np.ascontiguousarray(shifted.reshape(-1, 3)), body)
-    stuck = np.nonzero(np.all(cost.reshape(len(hit), len(offsets)) == LETHAL_OBSTACLE,
-                              axis=1))[0]
-    if len(stuck) == 0:
-        return None
-    k = int(judged[hit[stuck[0]]])
-    return float(xy[k, 0]), float(xy[k, 1])
+    fits = cost.reshape(len(hit), len(offsets)) != LETHAL_OBSTACLE
+    out = []
+    for i, k in enumerate(hit):
+        ok = offsets[fits[i]]
+        best = float(ok[np.argmin(np.abs(ok))]) if len(ok) else None
+        out.append(Misfit(float(poses[k, 0]), float(poses[k, 1]), float(poses[k, 2]), best))
+    return out
+
+
+def first_footprint_collision(costmap: Costmap2D, xy: FloatArray, footprint: Footprint,
+                              margin: float, window: float, skip_start: float,
+                              skip_goal: float, shift: float = 0.0
+                              ) -> tuple[float, float] | None:
+    """The first gap (x, y) of :func:`footprint_misfits`: a pose where no sideways shift
+    up to ``shift`` fits either; None if there is none."""
+    for m in footprint_misfits(costmap, xy, footprint, margin, window, skip_start,
+                               skip_goal, shift):
+        if m.shift is None:
+            return m.x, m.y
+    return None
 
 
 @dataclass
 class FootprintCheckResult:
     """What :func:`plan_footprint_checked` did: the path, how many plans it took, the
-    blocked points (x, y) and whether the returned path passed the check."""
+    centres of the discs it marked (blocks and pushes), whether the returned path fits
+    everywhere (``clear``), whether it has no gap (``gap_free``) and whether it is not the
+    planner's first path (``replaced``)."""
 
     path: Path
     plans: int
     blocked: list[tuple[float, float]] = field(default_factory=list)
     clear: bool = True
+    gap_free: bool = True
+    replaced: bool = False
 
 
 def plan_footprint_checked(plan: Callable[[Costmap2D], Path], costmap: Costmap2D,
                            footprint: Footprint, margin: float = 0.05,
                            replans: int = 8, block_radius: float = 0.1,
                            window: float = 0.15, skip_start: float = 0.15,
-                           skip_goal: float = 0.25, shift: float = 0.15
-                           ) -> FootprintCheckResult:
-    """``plan(costmap)``, then replan around the points where the oriented footprint does
-    not fit (module docstring).  Errors of the first plan propagate; a replan that fails
-    ends the search (the first path is returned)."""
+                           skip_goal: float = 0.25, shift: float = 0.15,
+                           push_spacing: float = 0.1) -> FootprintCheckResult:
+    """``plan(costmap)``, then replan around the gaps the oriented footprint does not fit
+    and off the obstacles it hugs (module docstring).  Errors of the first plan
+    propagate; a replan that fails ends the search."""
     first = plan(costmap)
     path = first
+    gap_free: Path | None = None
     work: Costmap2D | None = None
     blocked: list[tuple[float, float]] = []
+    plans = 1
     for k in range(replans + 1):
         xy = np.ascontiguousarray(path.as_array()[:, :2])
-        # judged on the real costmap: the blocked discs are not obstacles for the body
-        hit = first_footprint_collision(costmap, xy, footprint, margin, window, skip_start,
-                                        skip_goal, shift)
-        if hit is None:
-            return FootprintCheckResult(path, k + 1, blocked, True)
+        # judged on the real costmap: the discs are not obstacles for the body
+        misfits = footprint_misfits(costmap, xy, footprint, margin, window, skip_start,
+                                    skip_goal, shift)
+        if not misfits:
+            return FootprintCheckResult(path, plans, blocked, True, True, path is not first)
+        gaps = [m for m in misfits if m.shift is None]
+        if not gaps and gap_free is None:
+            gap_free = path
         if k == replans:
             break
-        # the disc must leave the start and goal cells free (the planner would refuse)
-        x, y = hit
-        clear = min(math.hypot(x - e[0], y - e[1]) for e in (xy[0], xy[-1]))
-        radius = min(block_radius, clear - 2.0 * costmap.resolution)
-        if radius < costmap.resolution:
-            break
+        discs = (_gap_disc(gaps[0], xy, costmap, block_radius) if gaps else
+                 _push_discs(misfits, xy, costmap, block_radius, push_spacing))
+        discs = [d for d in discs
+                 if all(math.hypot(d[0] - bx, d[1] - by) > 0.25 * costmap.resolution
+                        for bx, by in blocked)]
+        if not discs:
+            break  # nothing new to mark: the search cannot do better
         if work is None:
             work = costmap.copy()
-        _block_disc(work, x, y, radius)
-        blocked.append((x, y))
+        for x, y, r in discs:
+            _block_disc(work, x, y, r)
+            blocked.append((x, y))
         try:
             path = plan(work)
         except PlannerError:
             break
-    return FootprintCheckResult(first, len(blocked) + 1, blocked, False)
+        plans += 1
+    if gap_free is not None:
+        return FootprintCheckResult(gap_free, plans, blocked, False, True,
+                                    gap_free is not first)
+    return FootprintCheckResult(first, plans, blocked, False, False, False)
+
+
+def _room(x: float, y: float, xy: FloatArray, costmap: Costmap2D) -> float:
+    """Distance from (x, y) to the nearer end of the path, less two cells: a disc must
+    leave the start and goal cells free (the planner would refuse them)."""
+    return min(math.hypot(x - e[0], y - e[1]) for e in (xy[0], xy[-1])) \
+        - 2.0 * costmap.resolution
+
+
+def _gap_disc(gap: Misfit, xy: FloatArray, costmap: Costmap2D,
+              block_radius: float) -> list[tuple[float, float, float]]:
+    """The disc that closes a gap: on the path point, as large as the ends allow."""
+    radius = min(block_radius, _room(gap.x, gap.y, xy, costmap))
+    return [] if radius < costmap.resolution else [(gap.x, gap.y, radius)]
+
+
+def _push_discs(hugs: list[Misfit], xy: FloatArray, costmap: Costmap2D, radius: float,
+                spacing: float) -> list[tuple[float, float, float]]:
+    """Discs on the obstacle's side of the hugs (at least ``spacing`` apart along the
+    path), each reaching a cell past the shifted pose that fits, so that the replanned
+    path passes there or farther out."""
+    out: list[tuple[float, float, float]] = []
+    last: tuple[float, float] | None = None
+    for m in hugs:
+        if m.shift is None or m.shift == 0.0:
+            continue
+        if last is not None and math.hypot(m.x - last[0], m.y - last[1]) < spacing:
+            continue
+        # the disc's edge a cell beyond the shift that fits (the copy is not re-inflated:
+        # the planner skirts the disc's own cells, by whole cells)
+        side = math.copysign(1.0, m.shift)
+        off = m.shift + side * (costmap.resolution - radius)
+        x = m.x - off * math.sin(m.theta)
+        y = m.y + off * math.cos(m.theta)
+        if _room(x, y, xy, costmap) < radius:
+            continue
+        out.append((x, y, radius))
+        last = (m.x, m.y)
+    return out
 
 
 def _block_disc(costmap: Costmap2D, x: float, y: float, radius: float) -> None:
