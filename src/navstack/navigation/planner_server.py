@@ -40,7 +40,6 @@ from navstack.navigation.messages import (
     PlannerErrorCode,
 )
 from navstack.navigation.plugins import load_plugin, plugin_section
-from navstack.planning.footprint_path import plan_footprint_checked
 from navstack.runtime.actions import ActionServer, GoalHandle
 from navstack.runtime.bus import LATCHED
 from navstack.runtime.node import Node, Runtime
@@ -158,6 +157,10 @@ class PlannerServer(Node):
         planner = self.planners[planner_id or next(iter(self.planners))]
         p = self.params
         if p.footprint_check and self.footprint is not None:
+            # imported here: importing the servers must load no planner plugin module
+            # (navstack.planning's package imports them; tests/core/test_plugins.py)
+            from navstack.planning.footprint_path import plan_footprint_checked
+
             checked = plan_footprint_checked(
                 lambda cm: planner.plan(start_pose, goal_pose, cm), node.costmap,
                 self.footprint, margin=p.footprint_check_margin,
