@@ -514,7 +514,10 @@ class SlamMapper:
         if not self.nodes:
             return LogOddsGrid(res)
         poses = self.poses()
-        n = len(self.nodes)
+        n = min(len(self.nodes), poses.shape[0])  # asynchronous SLAM may be adding one
+        poses = poses[:n]
+        if n == 0:
+            return LogOddsGrid(res)
         cache = self._map_cache if incremental else None
         start = 0
         if (cache is not None and cache.resolution == res and 0 < cache.count <= n
@@ -527,10 +530,10 @@ class SlamMapper:
             usable = min(self.laser.range_max, self.params.max_laser_range)
             scans = [ScanData(node.ranges.astype(float), self.laser.angles,
                               self.laser.range_min, self.laser.range_max)
-                     for node in self.nodes[start:]]
+                     for node in self.nodes[start:n]]
             grid.integrate_scans(poses[start:], scans, usable, sensor_pose=self.laser.mount)
         if incremental:
-            self._map_cache = _MapCache(res, n, poses.copy(), self.nodes[-1], grid)
+            self._map_cache = _MapCache(res, n, poses.copy(), self.nodes[n - 1], grid)
             self.map_builds[0 if start else 1] += 1
             return grid.copy()
         return grid
