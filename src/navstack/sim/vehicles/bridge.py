@@ -194,11 +194,12 @@ class HilBridgeNode(Node):
             far = self.vehicle.far_side
             sent_any = False
             for link, packet in source.sample(self.sim_node.sim, now, dt):
+                # count the packets written, not those delivered: a packet that was late
+                # once must not satisfy the wait for the next one (counted before the
+                # write: the driver's reader may queue it at once)
+                want = max(self._expected.get(link, 0), self.delivered(link)) + 1
                 if far.send(link, packet):
                     sent_any = True
-                    # count the packets written, not those delivered: a packet that
-                    # was late once must not satisfy the wait for the next one
-                    want = max(self._expected.get(link, 0), self.delivered(link)) + 1
                     self._expected[link] = want
                     self._await_delivery(link, want)
             if sent_any:
