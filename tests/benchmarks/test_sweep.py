@@ -74,6 +74,31 @@ def test_ray_cluster_of_two_matches_serial_exactly(serial: list[Outcome]) -> Non
     assert done[0] == 0 and done[-1] == 3 and done == sorted(done)
 
 
+def test_lean_head_skips_three_services_only_while_the_cluster_starts() -> None:
+    from types import SimpleNamespace
+
+    from navstack.benchmarks.sweep_ray import LEAN_SKIPPED, _lean_head
+
+    class Node:
+        def start_log_monitor(self) -> str:
+            return "log monitor"
+
+        def start_monitor(self) -> str:
+            return "autoscaler"
+
+        def start_api_server(self, **kwargs: object) -> str:
+            return "api server"
+
+    fake_ray = SimpleNamespace(_private=SimpleNamespace(node=SimpleNamespace(Node=Node)))
+    with _lean_head(fake_ray):
+        assert [getattr(Node(), name)() for name in LEAN_SKIPPED] == [None] * 3
+    assert [getattr(Node(), name)() for name in LEAN_SKIPPED] == [
+        "log monitor", "autoscaler", "api server"]
+    del Node.start_api_server  # a Ray without one of them: nothing is skipped
+    with _lean_head(fake_ray):
+        assert Node().start_monitor() == "autoscaler"
+
+
 def test_bad_executor_options_are_named() -> None:
     with pytest.raises(ConfigError, match="unknown executor 'dask'"):
         run_jobs([], "dask")
