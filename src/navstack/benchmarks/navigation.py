@@ -358,6 +358,10 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     with ``faults``) instead of the fixed suite; ``executor``/``workers``/``address``
     choose where they run (:mod:`navstack.benchmarks.sweep`); ``report``: a folder for
     the Markdown report and the time-to-goal plot (:mod:`navstack.benchmarks.sweep_report`).
+
+    The executor is opened before the scenarios are drawn (a Ray cluster starts in the
+    background meanwhile); ``sweep_wall_s`` runs from there to the last result with the
+    executor closed, for every executor, and ``draw_s`` is the drawing's part.
     """
     from navstack.benchmarks.sweep import Job, check_executor, default_workers, open_executor
 
@@ -407,7 +411,7 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     result.metrics["sweep_wall_s"] = sweep_wall
     result.metrics["draw_s"] = draw_s
     if executor != "serial":
-        result.metrics["workers"] = float(workers or default_workers())
+        result.metrics["workers"] = ex.timings.get("workers", float(workers or default_workers()))
     for key in ("cluster_start_s", "cluster_wait_s", "shutdown_s"):
         if key in ex.timings:
             result.metrics[key] = ex.timings[key]
@@ -461,6 +465,23 @@ def failure_category(o: Outcome) -> str:
         if part.endswith(" failed"):
             return f"{o.status.lower()}: {part}: {parts[i + 1]}"[:100]
     return f"{o.status.lower()}: {parts[0]}"[:100]
+
+
+def failure_reason(o: Outcome) -> str:
+    """Why a scenario did not pass, as a sentence ("" when it passed or nothing says):
+    its collisions with the closest approaches, then the navigation reason."""
+    if o.passed:
+        return ""
+    parts = []
+    if o.collisions:
+        closest = [f"static {o.min_static_m:.2f} m"]
+        if o.min_moving_m is not None:
+            closest.append(f"moving {o.min_moving_m:.2f} m")
+        parts.append(f"{o.collisions} collision{'s' if o.collisions != 1 else ''} "
+                     f"(closest approach: {', '.join(closest)})")
+    if o.reason:
+        parts.append(o.reason)
+    return "; ".join(parts)
 
 
 def case_row(o: Outcome) -> dict[str, Any]:

@@ -56,21 +56,15 @@ class ScenarioWorker:
         # Importing the stack here runs as the actor is created, before the first job.
         import navstack.interfaces.stack  # noqa: F401
 
-        self.runs = 0
-
     def run(self, job: Job) -> Outcome:
-        self.runs += 1
         return run_scenario(job.scenario, seed=job.seed, controller=job.controller)
-
-    def pid(self) -> int:
-        return os.getpid()
 
 
 def import_ray() -> Any:
     try:
         import ray
-    except ImportError:
-        raise SweepError("--executor ray needs Ray: pip install 'navstack[sweeps]' "
+    except ImportError as exc:
+        raise SweepError(f"--executor ray needs Ray ({exc}): pip install 'navstack[sweeps]' "
                          "(or use --executor local)") from None
     return ray
 
@@ -128,10 +122,10 @@ def _start_local(ray: Any, workers: int) -> None:
 class RayPool:
     """A Ray cluster (started or joined in the background) with one warm actor per CPU.
 
-    ``timings`` receives ``cluster_start_s`` (importing Ray and starting or joining the
-    cluster, measured in the background thread) and, after :meth:`run`,
-    ``cluster_wait_s`` (how long :meth:`run` waited for the cluster: the part of the
-    start not hidden behind the caller's own work) and ``shutdown_s``."""
+    ``timings`` receives ``workers`` (actors made), ``cluster_start_s`` (importing Ray
+    and starting or joining the cluster, measured in the background thread) and, after
+    :meth:`run`, ``cluster_wait_s`` (how long :meth:`run` waited for the cluster: the
+    part of the start not hidden behind the caller's own work) and ``shutdown_s``."""
 
     def __init__(self, workers: int, address: str | None = None) -> None:
         self.workers = workers
@@ -188,6 +182,7 @@ class RayPool:
             actor = ray.remote(num_cpus=1, max_restarts=0, max_task_retries=0)(
                 ScenarioWorker)
             self._actors = [actor.remote() for _ in range(count)]
+            self.timings["workers"] = float(count)
         except BaseException as exc:  # re-raised in the caller's thread by run()
             self._error = exc
         self.timings["cluster_start_s"] = time.perf_counter() - t0
@@ -203,9 +198,14 @@ class RayPool:
         except Exception as exc:  # Ray raises plain Exception on a start-up timeout
             where = (f"the Ray cluster at {self.address}" if self.address
                      else f"a local Ray cluster of {self.workers} CPUs")
-            raise SweepError(f"could not start or reach {where}: {exc} (on an overloaded "
-                             "machine Ray's start-up can time out: retry, or use "
-                             "--executor local)") from None
+            hint = ("on an overloaded machine Ray's start-up can time out: retry, or use "
+                    "--executor local")
+            if self.address not in (None, "auto") and "RAY_AUTH_MODE" not in os.environ:
+                hint = ("a cluster started by `ray start` or `ray.init` uses token "
+                        "authentication, which Ray never assumes for an explicit address: "
+                        "set RAY_AUTH_MODE=token with the cluster's token in "
+                        "~/.ray/auth_token or RAY_AUTH_TOKEN_PATH; or " + hint)
+            raise SweepError(f"could not start or reach {where}: {exc} ({hint})") from None
 
     def _ready(self) -> Any:
         t0 = time.perf_counter()
