@@ -91,6 +91,24 @@ def test_controller_failure_runs_recoveries_in_round_robin_and_counts_them() -> 
     assert counts == sorted(counts) and counts[-1] == 6
 
 
+def test_activity_says_what_a_running_goal_is_doing() -> None:
+    """For whoever must stop a goal that has not ended (a benchmark's time limit)."""
+    h = make_harness(NavigateTreeParams(wait_duration=30.0), mode="fail")
+    assert h.nav.activity() == ""
+    h.goal(5.0, 0.0)
+    h.rt.scheduler.run_until(0.07)
+    assert h.nav.activity() == "navigating (ComputePathToPose), 0 of 6 recoveries used"
+    h.rt.scheduler.run_until(100.0, until=lambda: "wait" in h.behaviors.names())
+    h.rt.scheduler.run_until(h.rt.now + 1.0)
+    assert h.nav.activity() == (
+        "recovering (Wait), 3 of 6 recoveries used; last failure: FollowPath failed: no "
+        "valid trajectory: all 520 sampled trajectories collide (NO_VALID_CONTROL)")
+    moving = make_harness(speed=0.5)
+    moving.goal(5.0, 0.0)
+    moving.rt.scheduler.run_until(1.0)
+    assert moving.nav.activity() == "navigating (FollowPath), 0 of 6 recoveries used"
+
+
 def test_recovery_behaviors_choose_the_round_robin_for_a_car() -> None:
     """An Ackermann robot cannot spin: its list leaves Spin out and keeps the order."""
     h = make_harness(FAST.model_copy(update={"recovery_behaviors": ("clear_costmaps", "wait",

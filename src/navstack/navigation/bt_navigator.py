@@ -419,6 +419,32 @@ class BtNavigator(Node):
             pose, now - run.start, eta, int(self._get(RECOVERIES_KEY, 0)), dist, remaining,
             self.paused_reason))
 
+    def activity(self) -> str:
+        """What the running goal is doing, in a few words ("" with no goal; navstack
+        addition, for whoever must stop a goal that has not ended, e.g. a benchmark's
+        time limit): "recovering (BackUp), 6 of 6 recoveries used; last failure:
+        FollowPath failed: ...", "navigating (FollowPath), 0 of 6 recoveries used",
+        or "paused: <hold reason>"."""
+        run = self._run
+        if run is None:
+            return ""
+        if self.holds:
+            return f"paused: {self.paused_reason}"
+        tip = run.root.tip()
+        chain: list[str] = []
+        node = tip
+        while node is not None:
+            chain.append(node.name)
+            node = node.parent
+        doing = "recovering" if "RecoveryBranch" in chain else "navigating"
+        text = f"{doing} ({tip.name if tip is not None else 'starting'}), " \
+               f"{int(self._get(RECOVERIES_KEY, 0))} of " \
+               f"{self.tree_params.number_of_retries} recoveries used"
+        failures: tuple[FailureRecord, ...] = self._get(FAILURES_KEY, ())
+        if failures:
+            text += f"; last failure: {failures[-1].describe()}"
+        return text
+
     def failure_reason(self) -> tuple[int, str]:
         """Navigator error code and a sentence for the current goal's failure records.
 
