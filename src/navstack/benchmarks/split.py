@@ -51,7 +51,6 @@ from navstack.interfaces.split_demo import (
     moving_part,
     run_split,
     score,
-    time_to_zero,
 )
 from navstack.interfaces.split_nodes import run_in_process, trajectory_array
 
@@ -79,9 +78,10 @@ def _port() -> int:
         return int(s.getsockname()[1])
 
 
-def check_without_compensation(stack: Path, offset: float) -> dict[str, Any]:
-    """``navstack check --link base --no-compensate`` against a robot whose clock is
-    ``offset`` s off: exit code and whether the output names the contract and offset."""
+def check_clock(stack: Path, offset: float, compensate: bool = False) -> dict[str, Any]:
+    """``navstack check --link base [--no-compensate]`` (1 s on a wall clock) against a
+    robot whose clock is ``offset`` s off: exit code, the offset it shows (the threaded
+    NTP estimate) and whether the output names the contract and that offset."""
     port = _port()
     tmp = Path(tempfile.mkdtemp(prefix="navstack-check-"))
     local = tmp / "stack.yaml"
@@ -92,7 +92,8 @@ def check_without_compensation(stack: Path, offset: float) -> dict[str, Any]:
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         out = subprocess.run([*cmd, "check", "--stack", str(local), "--link", "base",
-                              "--no-compensate", "--duration", "1"],
+                              *([] if compensate else ["--no-compensate"]),
+                              "--duration", "1"],
                              capture_output=True, text=True, timeout=180, check=False)
     finally:
         robot.terminate()
@@ -109,12 +110,22 @@ def check_without_compensation(stack: Path, offset: float) -> dict[str, Any]:
             "names_offset": abs(shown_ms - offset * 1e3) <= OFFSET_BUDGET_MS}
 
 
+def _split_case(res: BenchResult, name: str, stack: Path, wp: Path,
+                **kw: Any) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """One split run; a run that ends without reports is a failed row, not a crash."""
+    try:
+        return run_split(stack, wp, port=_port(), **kw)
+    except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
+        res.cases.append({"case": name, "ok": False, "error": str(exc)[:200]})
+        return None
+
+
 def run(quick: bool, data_dir: Path | None, progress: Progress | None = None) -> BenchResult:
     del data_dir
     stack, wp = split_stack(), default_waypoints_path()
-    rate = 2.0 if quick else 1.0
+    rate = 2.0
     offsets = (0.0, 30.0) if quick else OFFSETS_S
-    stages = 3 + len(offsets) * 2 + 1
+    stages = 4 + len(offsets) * 3 + (1 if quick else 2)
     done = [0]
 
     def stage(name: str) -> None:
@@ -129,97 +140,125 @@ def run(quick: bool, data_dir: Path | None, progress: Progress | None = None) ->
     # 1. trajectory against the same stack in process (lockstep simulated time)
     stage("in-process reference (simulated time)")
     ref = run_in_process(stack, wp)
-    stage("split, lockstep")
-    robot, base = run_split(stack, wp, lockstep=True, port=_port())
     ref_xy = moving_part(trajectory_array(ref["trajectory"]))[:, 1:3]
-    split_xy = moving_part(trajectory_array(robot["trajectory"]))[:, 1:3]
-    m["lockstep_deviation_m"] = hausdorff_xy(split_xy, ref_xy)
-    m["lockstep_goals_succeeded"] = base["succeeded"]
-    m["lockstep_collisions"] = robot["collisions"]
     m["in_process_goals_succeeded"] = ref["succeeded"]
     m["in_process_collisions"] = ref["collisions"]
-    m["goals_total"] = len(base["goals"])
-    res.cases.append({"case": "lockstep", "goals": f"{base['succeeded']}/{len(base['goals'])}",
-                      "collisions": robot["collisions"],
-                      "deviation_m": round(m["lockstep_deviation_m"], 4),
-                      "goal_times_s": [g["time_s"] for g in base["goals"]],
-                      "in_process_goal_times_s": [g["time_s"] for g in ref["goals"]]})
+    m["goals_total"] = len(ref["goals"])
+    offsets_ok = True
+    for off in offsets:
+        stage(f"split, lockstep, robot clock {off:+g} s")
+        got = _split_case(res, f"lockstep offset {off:+g} s", stack, wp, lockstep=True,
+                          offset=off)
+        if got is None:
+            offsets_ok = False
+            continue
+        robot, base = got
+        dev = hausdorff_xy(moving_part(trajectory_array(robot["trajectory"]))[:, 1:3], ref_xy)
+        err = 1e3 * abs(base["robot_offset_s"] - off)
+        ok = (base["succeeded"] == len(base["goals"]) and robot["collisions"] == 0
+              and err <= OFFSET_BUDGET_MS and base["clock_contract"]["ok"])
+        offsets_ok = offsets_ok and ok
+        if off == 0.0:
+            m["lockstep_deviation_m"] = dev
+            m["lockstep_goals_succeeded"] = base["succeeded"]
+            m["lockstep_collisions"] = robot["collisions"]
+        res.cases.append({"case": f"lockstep offset {off:+g} s",
+                          "goals": f"{base['succeeded']}/{len(base['goals'])}",
+                          "collisions": robot["collisions"], "deviation_m": round(dev, 4),
+                          "offset_error_ms": round(err, 4),
+                          "late_deliveries": robot["late_deliveries"]
+                          + base["late_deliveries"],
+                          "goal_times_s": [g["time_s"] for g in base["goals"]], "ok": ok})
+    res.cases.append({"case": "in-process reference", "goals": f"{ref['succeeded']}/"
+                      f"{len(ref['goals'])}", "collisions": ref["collisions"],
+                      "goal_times_s": [g["time_s"] for g in ref["goals"]]})
+    m["lockstep_offsets_all_ok"] = float(offsets_ok)
 
-    # 2. + 3. wall clock: the in-process latency baseline, then every offset
+    # 2. the NTP estimate on wall clocks, with and without compensation
+    worst, checks_ok = 0.0, True
+    for off in offsets:
+        for compensate in (True, False):
+            stage(f"navstack check{'' if compensate else ' --no-compensate'}, robot clock "
+                  f"{off:+g} s")
+            c = check_clock(stack, off, compensate)
+            err = abs(c["offset_shown_ms"] - off * 1e3)
+            if compensate:
+                worst = max(worst, err) if np.isfinite(err) else float("inf")
+                ok = c["returncode"] == 0 and err <= OFFSET_BUDGET_MS
+            elif abs(off) > 0.005:
+                ok = c["returncode"] == 1 and c["names_contract"] and c["names_offset"]
+            else:
+                ok = c["returncode"] == 0
+            checks_ok = checks_ok and ok
+            res.cases.append({"case": f"check{'' if compensate else ' --no-compensate'} "
+                              f"{off:+g} s", "exit": c["returncode"],
+                              "offset_shown_ms": c["offset_shown_ms"],
+                              "line": c["line"][:110], "ok": ok})
+    m["wall_offset_error_max_ms"] = worst
+    m["clock_checks_ok"] = float(checks_ok)
+
+    # 3. added scan -> cmd_vel latency and a wall-clock split with the robot 2 s ahead
     stage(f"in-process reference (wall clock x{rate:g})")
     wall_ref = run_in_process(stack, wp, wall_rate=rate)
     m["in_process_wall_goals_succeeded"] = wall_ref["succeeded"]
     base_p50 = _ms(wall_ref["scan_to_cmd_s"], 50, rate)
     base_p99 = _ms(wall_ref["scan_to_cmd_s"], 99, rate)
     m["in_process_scan_to_cmd_p50_ms"], m["in_process_scan_to_cmd_p99_ms"] = base_p50, base_p99
-    worst_offset_ms, offsets_ok = 0.0, True
-    for off in offsets:
-        stage(f"split, wall clock x{rate:g}, robot clock {off:+g} s")
-        robot, base = run_split(stack, wp, rate=rate, offset=off, port=_port())
-        fig = score(robot, base, None, off)
-        err = fig["offset_error_ms"]
-        ok = (base["succeeded"] == len(base["goals"]) and robot["collisions"] == 0
-              and err <= OFFSET_BUDGET_MS and base["clock_contract"]["ok"])
-        offsets_ok = offsets_ok and ok
-        worst_offset_ms = max(worst_offset_ms, err)
-        res.cases.append({"case": f"offset {off:+g} s", "goals": fig["goals"],
+    stage(f"split, wall clock x{rate:g}")
+    got = _split_case(res, "wall clock", stack, wp, rate=rate)
+    if got is not None:
+        robot, base = got
+        fig = score(robot, base, None, 0.0)
+        p50 = _ms(robot["scan_to_cmd_s"], 50, rate)
+        p99 = _ms(robot["scan_to_cmd_s"], 99, rate)
+        m["split_scan_to_cmd_p50_ms"], m["split_scan_to_cmd_p99_ms"] = p50, p99
+        m["added_scan_to_cmd_p50_ms"] = p50 - base_p50
+        m["added_scan_to_cmd_p99_ms"] = p99 - base_p99
+        scan = base["latency_s"].get("/scan", {})
+        m["scan_robot_to_base_p50_ms"] = 1e3 * scan.get("p50", float("nan"))
+        m["scan_robot_to_base_p99_ms"] = 1e3 * scan.get("p99", float("nan"))
+        m["robot_loop_lateness_p99_ms"] = fig["robot_loop_lateness_p99_ms"] / rate
+        m["wall_goals_succeeded"] = base["succeeded"]
+        m["wall_collisions"] = robot["collisions"]
+        res.cases.append({"case": "wall clock", "goals": fig["goals"],
                           "collisions": robot["collisions"],
-                          "offset_estimated_s": round(base["robot_offset_s"], 6),
-                          "offset_error_ms": round(err, 3),
-                          "clock_contract": fig["clock_contract"], "ok": ok})
-        if off == 0.0:
-            p50 = _ms(robot["scan_to_cmd_s"], 50, rate)
-            p99 = _ms(robot["scan_to_cmd_s"], 99, rate)
-            m["split_scan_to_cmd_p50_ms"], m["split_scan_to_cmd_p99_ms"] = p50, p99
-            m["added_scan_to_cmd_p50_ms"] = p50 - base_p50
-            m["added_scan_to_cmd_p99_ms"] = p99 - base_p99
-            scan = base["latency_s"].get("/scan", {})
-            m["scan_robot_to_base_p50_ms"] = 1e3 * scan.get("p50", float("nan"))
-            m["scan_robot_to_base_p99_ms"] = 1e3 * scan.get("p99", float("nan"))
-            m["robot_loop_lateness_p99_ms"] = fig["robot_loop_lateness_p99_ms"] / rate
-            m["wall_deviation_from_lockstep_reference_m"] = hausdorff_xy(
-                moving_part(trajectory_array(robot["trajectory"]))[:, 1:3], ref_xy)
-    m["offsets_all_ok"] = float(offsets_ok)
-    m["offset_error_max_ms"] = worst_offset_ms
+                          "offset_error_ms": round(fig["offset_error_ms"], 4),
+                          "watchdog_stops": len(robot["watchdog"]["stops"])})
 
-    checks_ok = True
-    for off in offsets:
-        stage(f"navstack check --no-compensate, robot clock {off:+g} s")
-        c = check_without_compensation(stack, off)
-        expect_fail = abs(off) > 0.005
-        ok = ((c["returncode"] == 1 and c["names_contract"] and c["names_offset"])
-              if expect_fail else c["returncode"] == 0)
-        checks_ok = checks_ok and ok
-        res.cases.append({"case": f"check --no-compensate {off:+g} s",
-                          "exit": c["returncode"], "offset_shown_ms": c["offset_shown_ms"],
-                          "line": c["line"][:110], "ok": ok})
-    m["check_without_compensation_ok"] = float(checks_ok)
-
-    # 4. blackout
-    stage(f"split, wall clock x{rate:g}, {BLACKOUT[1]:g} s blackout at {BLACKOUT[0]:g} s")
-    robot, base = run_split(stack, wp, rate=rate, blackout=BLACKOUT, port=_port())
-    fig = score(robot, base, None, 0.0, BLACKOUT)
-    start = robot["opened_at"] + BLACKOUT[0]
-    before = [abs(vx) + abs(wz) for t, vx, wz in robot["cmd_vel"] if start - 1.0 <= t < start]
-    m["blackout_time_to_zero_s"] = (fig["blackout_time_to_zero_s"]
-                                    if fig["blackout_time_to_zero_s"] is not None
-                                    else float("inf"))
-    m["blackout_speed_before_m_s"] = max(before, default=0.0)
-    m["blackout_goals_succeeded"] = base["succeeded"]
-    m["blackout_collisions"] = robot["collisions"]
-    m["blackout_watchdog_stops"] = fig["watchdog_stops"]
-    m["blackout_watchdog_resumes"] = fig["watchdog_resumes"]
-    res.cases.append({"case": "blackout 20:2", "goals": fig["goals"],
-                      "collisions": robot["collisions"],
-                      "time_to_zero_s": fig["blackout_time_to_zero_s"],
-                      "stops": robot["watchdog"]["stops"],
-                      "resumes": robot["watchdog"]["resumes"]})
-    ttz_check = time_to_zero(robot["cmd_vel"], start, start + BLACKOUT[1])
-    res.notes.append(f"blackout window on the robot clock: {start:.3f} .. "
-                     f"{start + BLACKOUT[1]:.3f} s; zero from +{ttz_check} s")
+    # 4. blackout: lockstep (reproducible) and wall clock
+    modes: tuple[tuple[str, dict[str, Any]], ...] = (("lockstep", {"lockstep": True}),)
+    if not quick:
+        modes += ((f"wall x{rate:g}", {"rate": rate}),)
+    for label, kw in modes:
+        stage(f"split, {label}, {BLACKOUT[1]:g} s blackout at {BLACKOUT[0]:g} s")
+        got = _split_case(res, f"blackout {label}", stack, wp, blackout=BLACKOUT, **kw)
+        if got is None:
+            continue
+        robot, base = got
+        fig = score(robot, base, None, 0.0, BLACKOUT)
+        start = robot["opened_at"] + BLACKOUT[0]
+        before = [abs(vx) + abs(wz) for t, vx, wz in robot["cmd_vel"]
+                  if start - 1.0 <= t < start]
+        ttz = fig["blackout_time_to_zero_s"]
+        key = "lockstep" if "lockstep" in kw else "wall"
+        m[f"blackout_{key}_time_to_zero_s"] = float("inf") if ttz is None else ttz / (
+            1.0 if "lockstep" in kw else rate)
+        m[f"blackout_{key}_goals_succeeded"] = base["succeeded"]
+        m[f"blackout_{key}_collisions"] = robot["collisions"]
+        res.cases.append({"case": f"blackout {label}", "goals": fig["goals"],
+                          "collisions": robot["collisions"], "time_to_zero_s": ttz,
+                          "speed_before": round(max(before, default=0.0), 3),
+                          "stops": [round(t - robot["opened_at"], 3)
+                                    for t in robot["watchdog"]["stops"]],
+                          "resumes": [round(t - robot["opened_at"], 3)
+                                      for t in robot["watchdog"]["resumes"]],
+                          "ok": (ttz is not None and ttz <= ZERO_BUDGET_S
+                                 and base["succeeded"] == len(base["goals"])
+                                 and robot["collisions"] == 0)})
     res.notes.append(f"1-min load average {load0:.1f} at start, {os.getloadavg()[0]:.1f} at "
-                     f"end, {os.cpu_count()} CPUs; wall-clock rate {rate:g}; "
-                     f"finished {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}")
+                     f"end, {os.cpu_count()} CPUs; wall-clock rate {rate:g} (latencies and "
+                     f"wall times in real ms / s); finished "
+                     f"{time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}")
     res.notes.append(f"budgets: deviation <= {DEVIATION_BUDGET_M} m, added p99 <= "
                      f"{ADDED_LATENCY_BUDGET_MS} ms, offset error <= {OFFSET_BUDGET_MS} ms, "
                      f"zero command <= {ZERO_BUDGET_S} s after the blackout starts")

@@ -176,17 +176,19 @@ def succeeded(goals: list[dict[str, Any]]) -> int:
 
 def run_in_process(stack_file: str | FsPath, waypoints_file: str | FsPath, *,
                    wall_rate: float | None = None, goal_timeout_s: float = 240.0,
-                   echo: bool = False) -> dict[str, Any]:
+                   echo: bool = False, clock_offset: float = 0.0) -> dict[str, Any]:
     """Both halves of ``stack_file``'s split on one runtime and the in-process bus, with
     the stack's seed: the reference of a split run.  Simulated time starting at
     :data:`~navstack.runtime.transports.lockstep.SIM_EPOCH` like a lockstep robot with no
     clock offset (``wall_rate``: on
     a wall clock at that rate instead, for the latency baseline).  Returns the
     trajectory ``(t, x, y, theta)`` rows, goals, collisions and scan -> cmd_vel
-    latencies (process seconds)."""
+    latencies (process seconds).  ``clock_offset``: start the simulated clock that much
+    later -- the clock a lockstep robot with that offset runs on (the mission's outcome
+    depends on the clock's start value through float rounding alone)."""
     stack = NavStack.from_stack_file(stack_file)
     waypoints = load_waypoints(waypoints_file)
-    sched = (Scheduler("sim", start_time=SIM_EPOCH) if wall_rate is None
+    sched = (Scheduler("sim", start_time=SIM_EPOCH + clock_offset) if wall_rate is None
              else Scheduler("wall", rate=wall_rate))
     rt = Runtime(sched)
     robot = RobotNodes(rt, stack, lambda: True)

@@ -138,8 +138,9 @@ def split_demo(
                                             "time) and compare trajectories.")] = True,
     in_process: Annotated[bool, typer.Option(
         "--in-process", help="Only run the same stack's robot and base halves in one "
-                             "process on the in-process bus (the reference) and print "
-                             "its figures.")] = False,
+                             "process on the in-process bus (the reference; with "
+                             "--clock-offset on the clock a lockstep robot with that "
+                             "offset runs on) and print its figures.")] = False,
     reference_csv: Annotated[Path | None, typer.Option(
         "--reference-csv", help="Compare with this t,x,y,theta trajectory CSV instead of "
                                 "running the in-process reference.")]
@@ -169,9 +170,12 @@ def split_demo(
     figures: dict[str, Any]
     try:
         if in_process:
-            ref_run = reference_run(stack, wp)
+            ref_run = reference_run(stack, wp, clock_offset=clock_offset)
             samples = ref_run["scan_to_cmd_s"]
             figures = {"goals": f"{ref_run['succeeded']}/{len(ref_run['goals'])}",
+                       "goal_times_s": [g["time_s"] for g in ref_run["goals"]],
+                       "failures": [f"{g['name']}: {g['reason']}" for g in ref_run["goals"]
+                                    if g["status"] != "SUCCEEDED"],
                        "collisions": ref_run["collisions"],
                        "sim_time_s": sum(g["time_s"] for g in ref_run["goals"]),
                        "scan_to_cmd_samples": len(samples)}
