@@ -67,13 +67,16 @@ def test_check_names_the_clock_contract_and_the_offset(tmp_path: Path) -> None:
         "robot", "--stack", str(stack), "--clock-offset", "2.0", "--max-seconds", "90",
         "--keep-running"),
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # a wide terminal: rich wraps the table's cells at 80 columns without a tty, and a
+    # wrapped "compensation is off" no longer matches
+    wide = dict(os.environ, COLUMNS="250")
     try:
         bad = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
                                        "--no-compensate", "--duration", "1"),
-                             capture_output=True, text=True, timeout=120)
+                             capture_output=True, text=True, timeout=120, env=wide)
         good = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
                                         "--duration", "1"),
-                              capture_output=True, text=True, timeout=120)
+                              capture_output=True, text=True, timeout=120, env=wide)
     finally:
         robot.kill()
         robot.wait(timeout=10)
