@@ -3,9 +3,9 @@
 ``navstack robot`` runs what must keep working when the radio drops: the simulator (or
 drivers) with odometry, the local costmap, the controller and behavior servers, the
 command chain (velocity smoother, collision monitor, twist_mux) and the
-:class:`~navstack.nodes.link_watchdog.LinkWatchdog` in front of the base.  ``navstack
-base`` runs the map server, global costmap, planner, BT navigator and waypoint follower,
-and sends the mission.  Between them (:func:`robot_wiring`):
+:class:`~navstack.nodes.link_watchdog.LinkWatchdog` in front of the base.
+``navstack base`` runs the map server, global costmap, planner, BT navigator and
+waypoint follower, and sends the mission.  Between them (:func:`robot_wiring`):
 
 ==================  ============  =====================================================
 what                direction     how

@@ -8,6 +8,11 @@ and, for ``feedback: CLOSED_LOOP``, the odometry twist; publishes
 smoothed in the cycle it was computed in (a timer firing at the same instant would run
 before the command is delivered, adding one period of latency).  Speed limits are not
 applied here (Nav2 applies them in the controller, and so does navstack).
+
+navstack departure: a message on ``/<name>/stop`` (:data:`STOP_TOPIC`, ``std_msgs/Bool``)
+is an operator's stop -- a mission cancelled, a leg aborted: the smoother drops its state
+and publishes zero at once instead of ramping down at ``max_decel`` (Nav2 ramps every
+zero, so a cancelled goal keeps the robot rolling for ``v / decel`` seconds).
 """
 
 from __future__ import annotations
@@ -15,11 +20,14 @@ from __future__ import annotations
 from typing import Any
 
 from navstack.control.velocity_smoother import VelocitySmoother, VelocitySmootherParams
-from navstack.core.msgs import Header, Odometry, Twist, TwistStamped
+from navstack.core.msgs import Bool, Header, Odometry, Twist, TwistStamped
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Node, Runtime
 
-__all__ = ["PHASE", "VelocitySmootherNode"]
+__all__ = ["PHASE", "STOP_TOPIC", "VelocitySmootherNode"]
+
+STOP_TOPIC = "/velocity_smoother/stop"
+"""The default smoother's stop-request topic (``/<node name>/stop``)."""
 
 PHASE = 1e-3
 """[s] the smoothing timer runs this long after the instants of the controller's cycles."""
@@ -42,6 +50,7 @@ class VelocitySmootherNode(Node):
         self.create_subscription(p.cmd_vel_in_topic, kind, self._on_cmd, QoS(depth=1))
         if p.feedback == "CLOSED_LOOP":
             self.create_subscription(p.odom_topic, Odometry, self._on_odom, QoS(depth=10))
+        self.create_subscription(f"/{self.name}/stop", Bool, self._on_stop, QoS(depth=1))
 
     def on_activate(self) -> None:
         # PHASE after the controller's cycle: a command published at t is smoothed at
@@ -58,6 +67,17 @@ class VelocitySmootherNode(Node):
         twist = msg.twist if isinstance(msg, TwistStamped) else msg
         if not self.smoother.command(twist.to_twist2d(), self.now):
             self.log.warning("velocity_smoother: ignoring a non-finite command %s", twist)
+
+    def _on_stop(self, msg: Bool) -> None:
+        """An operator's stop (module docstring): zero now, no ramp."""
+        if not msg.data:
+            return
+        self.smoother.reset()
+        self.published += 1
+        if self.params.enable_stamped_cmd_vel:
+            self.pub.publish(TwistStamped(Header(self.now, "base_link"), Twist()))
+        else:
+            self.pub.publish(Twist())
 
     def _on_odom(self, msg: Odometry) -> None:
         self.smoother.odometry(msg.twist.twist.to_twist2d(), self.now)
