@@ -8,7 +8,9 @@ Per accepted scan (``minimum_travel_distance`` / ``minimum_travel_heading`` /
    ``scan_buffer_maximum_scan_distance``) with the correlative matcher
    (:mod:`navstack.mapping.scan_matcher`); a response of at least
    ``link_match_minimum_response_fine`` gives the node's pose and a scan-match edge,
-   otherwise the odometry edge is used;
+   otherwise the odometry edge is used; reference points the new scan sees through at the
+   predicted pose by more than ``dynamic_point_margin`` (a person who walked on) are
+   left out of this match and of the fine loop match (:mod:`navstack.mapping.free_space`);
 3. look for a loop closure: earlier nodes within ``loop_search_maximum_distance``, outside
    the current chain, grouped into chains of consecutive scans of at least
    ``loop_match_minimum_chain_size``; each chain is matched coarsely over
@@ -35,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.geometry import se2_between, se2_compose, se2_inverse
+from navstack.mapping.free_space import seen_through
 from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.occupancy import LogOddsGrid, ScanData
 from navstack.mapping.pose_graph import PoseGraph
@@ -267,24 +270,46 @@ class SlamMapper:
         return [int(i) for i in near[np.argsort(dist[near])][: self.params.scan_buffer_size]]
 
     def _match(self, reference_ids: Sequence[int], points: FloatArray, guess: FloatArray,
-               window: SearchWindow, resolution: float, smear: float,
-               block: int = 4) -> MatchResult | None:
-        grid = self._grid(reference_ids, points, guess, window, resolution, smear, block)
+               window: SearchWindow, resolution: float, smear: float, block: int = 4,
+               ranges: NDArray[np.floating] | None = None) -> MatchResult | None:
+        """Correlative match (+ ICP polish); with the scan's ``ranges`` the reference
+        points it sees through at ``guess`` are left out (``dynamic_point_margin``)."""
+        keep = None if ranges is None else self._static_mask(reference_ids, ranges, guess)
+        grid = self._grid(reference_ids, points, guess, window, resolution, smear, block, keep)
         if grid is None:
             return None
         match = match_scan(grid, points, guess, window)
         if not self.params.use_point_to_line_refinement:
             return match
-        return self._polish(reference_ids, points, match)
+        return self._polish(reference_ids, points, match, keep)
+
+    def _static_mask(self, reference_ids: Sequence[int], ranges: NDArray[np.floating],
+                     guess: FloatArray) -> NDArray[np.bool_] | None:
+        """False for reference points the new scan sees through (moved objects, e.g.
+        a person walking ahead), see :mod:`navstack.mapping.free_space`."""
+        margin = self.params.dynamic_point_margin
+        if margin <= 0.0 or len(reference_ids) == 0:
+            return None
+        poses = self.graph.poses()
+        reference = np.vstack([self._world_points(i, poses) for i in reference_ids])
+        laser = self.laser
+        return ~seen_through(ranges, laser.angles, laser.range_min,
+                             min(laser.range_max, self.params.max_laser_range),
+                             se2_compose(guess, laser.mount), reference, margin)
 
     def _grid(self, reference_ids: Sequence[int], points: FloatArray, guess: FloatArray,
               window: SearchWindow, resolution: float, smear: float,
-              block: int = 4) -> LikelihoodGrid | None:
-        """Likelihood grid of the reference scans covering the whole search."""
+              block: int = 4, keep: NDArray[np.bool_] | None = None) -> LikelihoodGrid | None:
+        """Likelihood grid of the reference scans (their ``keep`` points) covering the
+        whole search."""
         if len(reference_ids) == 0 or points.shape[0] < 10:
             return None
         poses = self.graph.poses()
         reference = np.vstack([self._world_points(i, poses) for i in reference_ids])
+        if keep is not None:
+            reference = reference[keep]
+            if reference.shape[0] == 0:
+                return None
         c, s = math.cos(guess[2]), math.sin(guess[2])
         query = points @ np.array([[c, s], [-s, c]]) + guess[:2]
         reach = float(np.hypot(points[:, 0], points[:, 1]).max())
@@ -294,7 +319,7 @@ class SlamMapper:
         return LikelihoodGrid.around(reference, query, margin, resolution, smear, block)
 
     def _polish(self, reference_ids: Sequence[int], points: FloatArray,
-                match: MatchResult) -> MatchResult:
+                match: MatchResult, keep: NDArray[np.bool_] | None = None) -> MatchResult:
         """Point-to-line ICP from the correlative result; kept only within two search
         cells of it (the correlative search decides the basin)."""
         poses = self.graph.poses()
@@ -304,8 +329,11 @@ class SlamMapper:
             c, s = math.cos(poses[i, 2]), math.sin(poses[i, 2])
             normals.append(self.nodes[i].normals @ np.array([[c, s], [-s, c]]))
             masks.append(self.nodes[i].line_like)
+        line_like = np.concatenate(masks)
+        if keep is not None:
+            line_like = line_like & keep
         refined, used = refine_point_to_line(np.vstack(refs), np.vstack(normals),
-                                             np.concatenate(masks), points, match.pose)
+                                             line_like, points, match.pose)
         limit = 2.0 * self.params.correlation_search_space_resolution
         if used == 0 or math.hypot(*(refined[:2] - match.pose[:2])) > limit:
             return match
@@ -329,7 +357,8 @@ class SlamMapper:
         elif p.use_scan_matching:
             match = self._match(reference, node.points, guess, self._window,
                                 p.correlation_search_space_resolution,
-                                p.correlation_search_space_smear_deviation)
+                                p.correlation_search_space_smear_deviation,
+                                ranges=node.ranges)
         if match is not None and match.response >= p.link_match_minimum_response_fine:
             pose, cov = match.pose, match.covariance
         else:
@@ -407,7 +436,7 @@ class SlamMapper:
                 continue
             fine = self._match(chain, node.points, coarse.pose, self._window,
                                p.correlation_search_space_resolution,
-                               p.correlation_search_space_smear_deviation)
+                               p.correlation_search_space_smear_deviation, ranges=node.ranges)
             if fine is None or fine.response < p.loop_match_minimum_response_fine:
                 continue
             poses = self.graph.poses()

@@ -103,6 +103,10 @@ class SlamParams(Params):
     loop_match_maximum_drift_base: float = Field(0.3, gt=0.0)
     loop_match_maximum_drift_rate: float = Field(0.05, ge=0.0)
     loop_closure_robust_kernel: float = Field(1.0, ge=0.0)
+    # navstack: reference points a new scan sees through by more than this margin [m]
+    # (+ 2% of their range) are left out of its scan match -- people walking, see
+    # mapping/free_space.py; 0 = off (slam_toolbox's behaviour)
+    dynamic_point_margin: float = Field(0.2, ge=0.0)
 
     # --- solver (accepted for slam_toolbox files; the back end is gtsam) ---
     solver_plugin: str = "solver_plugins::CeresSolver"
