@@ -52,6 +52,7 @@ from navstack.nodes.slam import SlamNode
 from navstack.nodes.twist_mux import TwistMuxNode
 from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
+from navstack.runtime.scheduler import Scheduler
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
 from navstack.sim.simulator import Simulator
@@ -77,6 +78,13 @@ class StackExtension(Protocol):
 
     def ready(self, runtime: Runtime) -> bool:
         """Whether the extension is up (``start()`` waits for it, at most 2 s)."""
+
+
+class SimulatorNodeFactory(Protocol):
+    """Builds a stack's simulator node: ``(runtime, perfect_localization, wired)``."""
+
+    def __call__(self, runtime: Runtime, perfect_localization: bool,
+                 wired: frozenset[str]) -> SimulatorNode: ...
 
 
 class StackNotStarted(LifecycleError):
@@ -115,7 +123,9 @@ class NavStack:
                  spawn: Pose2D | None = None, *,
                  localization: LocalizationName | Localization = "perfect",
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
-                 extensions: Sequence[StackExtension] = ()) -> None:
+                 extensions: Sequence[StackExtension] = (),
+                 scheduler: Scheduler | None = None,
+                 simulator_node: SimulatorNodeFactory | None = None) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
         the map given to navigation (default: the world's true static map).
 
@@ -125,6 +135,11 @@ class NavStack:
         no map server), or an option object with parameters --
         ``AmclLocalization({...Nav2 amcl keys})``, ``SlamLocalization(SlamParams | {...})``
         (:mod:`navstack.interfaces.stack_description`).
+
+        ``scheduler``: run on this scheduler (clock) instead of a new one -- the robots of
+        a fleet share one; ``simulator_node``: builds the simulator node instead of a
+        simulator of its own (a fleet robot, :class:`~navstack.sim.node.FleetSimulatorNode`),
+        called with the runtime, whether localization is perfect and the wired parts.
 
         Nothing runs yet: the arguments are resolved and validated into
         :attr:`description`; :meth:`start` brings the stack up."""
@@ -141,6 +156,8 @@ class NavStack:
         self.footprint = d.footprint
         self.body_footprint = d.body_footprint
         self.extensions = tuple(extensions)
+        self._scheduler = scheduler
+        self._simulator_node = simulator_node
         self._running: _Running | None = None
 
     # --- bring-up --------------------------------------------------------------------------
@@ -154,7 +171,7 @@ class NavStack:
         2 s).  Idempotent; returns the stack."""
         if self._running is not None:
             return self
-        rt = Runtime()
+        rt = Runtime(self._scheduler)
         sim = self._start_simulation(rt)
         for extension in self.extensions:
             extension.attach(rt, sim)
@@ -187,6 +204,8 @@ class NavStack:
         d = self.description
         perfect = isinstance(d.localization, PerfectLocalization)
         wired = frozenset().union(*(e.wired for e in self.extensions))
+        if self._simulator_node is not None:
+            return self._simulator_node(rt, perfect, wired)
         return SimulatorNode(rt, Simulator(d.world, d.robot, d.seed, d.spawn),
                              d.physics_rate_hz, perfect, wired=wired)
 

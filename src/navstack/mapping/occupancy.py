@@ -260,6 +260,14 @@ class LogOddsGrid:
                     bounds: tuple[float, float, float, float] | None = None) -> LogOddsGrid:
         return cls(bounds=bounds, **params.model_dump())
 
+    def copy(self) -> LogOddsGrid:
+        """An independent copy (same lattice, values, observed marks and scan count)."""
+        out = LogOddsGrid.__new__(LogOddsGrid)
+        out.__dict__.update(self.__dict__)
+        out._l = self._l.copy()
+        out._mark = self._mark.copy()
+        return out
+
     # --- geometry ------------------------------------------------------------------------
     @property
     def resolution(self) -> float:

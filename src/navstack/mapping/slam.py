@@ -98,6 +98,17 @@ class SlamStats:
     loop_implausible: int = 0
 
 
+@dataclass
+class _MapCache:
+    """The grid :meth:`SlamMapper.build_map` built last, and what it holds."""
+
+    resolution: float
+    count: int
+    poses: FloatArray
+    last_node: ScanNode
+    grid: LogOddsGrid
+
+
 class SlamMapper:
     """Online pose-graph SLAM; feed :meth:`process_scan`, read poses / map / ``map->odom``."""
 
@@ -112,6 +123,9 @@ class SlamMapper:
         self._last_accepted_stamp = -math.inf
         self._map_to_odom = np.zeros(3)
         self._world_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
+        self._map_cache: _MapCache | None = None
+        self.map_builds = [0, 0]
+        """Maps built by :meth:`build_map` incrementally / from scratch."""
         self.frozen_nodes = 0  # nodes loaded for localization: matched against, never moved
         self._window = SearchWindow(
             dimension=params.correlation_search_space_dimension,
@@ -514,16 +528,43 @@ class SlamMapper:
                 out[k] = se2_compose(poses[n], se2_between(self.nodes[n].odom, o))
         return out
 
-    def build_map(self, resolution: float | None = None) -> LogOddsGrid:
-        """Occupancy grid of all node scans at their optimised poses."""
+    def build_map(self, resolution: float | None = None, *,
+                  incremental: bool = True) -> LogOddsGrid:
+        """Occupancy grid of all node scans at their optimised poses.
+
+        The grid of the previous call is kept: when the nodes it holds are still the
+        first nodes, at exactly the same poses (no loop closure or relinearisation moved
+        them), only the new nodes' scans are added to it -- the same log-odds updates in
+        the same order as a rebuild, on the same lattice (world (0, 0)), so the same map,
+        at a cost that no longer grows with the number of nodes.  ``incremental=False``
+        always rebuilds from every node.
+        """
         res = self.params.resolution if resolution is None else resolution
-        grid = LogOddsGrid(res)
         if not self.nodes:
-            return grid
-        usable = min(self.laser.range_max, self.params.max_laser_range)
-        scans = [ScanData(node.ranges.astype(float), self.laser.angles, self.laser.range_min,
-                          self.laser.range_max) for node in self.nodes]
-        grid.integrate_scans(self.poses(), scans, usable, sensor_pose=self.laser.mount)
+            return LogOddsGrid(res)
+        poses = self.poses()
+        n = min(len(self.nodes), poses.shape[0])  # asynchronous SLAM may be adding one
+        poses = poses[:n]
+        if n == 0:
+            return LogOddsGrid(res)
+        cache = self._map_cache if incremental else None
+        start = 0
+        if (cache is not None and cache.resolution == res and 0 < cache.count <= n
+                and self.nodes[cache.count - 1] is cache.last_node
+                and np.array_equal(poses[:cache.count], cache.poses)):
+            grid, start = cache.grid, cache.count
+        else:
+            grid = LogOddsGrid(res)
+        if start < n:
+            usable = min(self.laser.range_max, self.params.max_laser_range)
+            scans = [ScanData(node.ranges.astype(float), self.laser.angles,
+                              self.laser.range_min, self.laser.range_max)
+                     for node in self.nodes[start:n]]
+            grid.integrate_scans(poses[start:], scans, usable, sensor_pose=self.laser.mount)
+        if incremental:
+            self._map_cache = _MapCache(res, n, poses.copy(), self.nodes[n - 1], grid)
+            self.map_builds[0 if start else 1] += 1
+            return grid.copy()
         return grid
 
 

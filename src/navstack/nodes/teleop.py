@@ -91,7 +91,7 @@ class TeleopNode(Node):
             self.cancelled += self._cancel_goals()
         elif mode == "auto":
             for name in self.params.cancel_actions:  # success when an auto goal ends well
-                server = self.bus.action_servers.get(name)
+                server = self._server(name)
                 for handle in getattr(server, "goals", []):
                     if not handle.done:
                         handle.add_done_callback(self._on_goal_done)
@@ -103,10 +103,17 @@ class TeleopNode(Node):
             self.mode = "success"
             self.pub_mode.publish(String("success"))
 
+    def _server(self, name: str) -> object:
+        """The action server ``name``, with or without the leading slash (the stack's
+        servers are ``/navigate_to_pose``...; ROS names them relative)."""
+        servers = self.bus.action_servers
+        return servers.get(name) or servers.get("/" + name.lstrip("/")) or servers.get(
+            name.lstrip("/"))
+
     def _cancel_goals(self) -> int:
         n = 0
         for name in self.params.cancel_actions:
-            server = self.bus.action_servers.get(name)
+            server = self._server(name)
             for handle in list(getattr(server, "goals", [])):
                 if not handle.done:
                     handle.cancel()

@@ -51,6 +51,7 @@ from navstack.core.msgs import (
 from navstack.core.msgs.geometry_msgs import Quaternion
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
+from navstack.sim.fleet import FleetSimulator
 from navstack.sim.simulator import Simulator
 
 OBSTACLES_PERIOD = 0.1
@@ -260,3 +261,22 @@ WIRED_PARTS = frozenset({"base", "odometry", "imu", "gnss", "magnetometer"})
 def _topic(name: str) -> str:
     """Absolute topic name (profile topics are written without the leading slash)."""
     return name if name.startswith("/") else "/" + name
+
+
+class FleetSimulatorNode(SimulatorNode):
+    """One robot of a :class:`~navstack.sim.fleet.FleetSimulator` on its own namespace's
+    bus: publishes that robot's sensors; advancing it advances the whole fleet (every
+    robot sees the others where they are at the same instant)."""
+
+    def __init__(self, runtime: Runtime, fleet: FleetSimulator, robot: str,
+                 perfect_localization: bool = True, wired: Collection[str] = ()) -> None:
+        super().__init__(runtime, fleet.sim(robot), 1.0 / fleet.physics_dt,
+                         perfect_localization, wired=wired)
+        self.fleet = fleet
+
+    def advance(self) -> None:
+        now = self.now
+        self.fleet.advance_to(now)
+        if now - self._last_clock_t >= self.clock_period - 1e-9:
+            self._last_clock_t = now
+            self.pub_clock.publish(Clock(now))

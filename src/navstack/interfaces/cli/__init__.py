@@ -9,6 +9,7 @@ from navstack.interfaces.cli import (
     aruco_cmds,
     bag_cmds,
     demo_cmds,
+    fleet_cmds,
     health_cmds,
     link_cmds,
     mission_cmds,
@@ -20,6 +21,6 @@ from navstack.interfaces.cli import (
 )
 from navstack.interfaces.cli.common import app
 
-__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds",
+__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "fleet_cmds", "health_cmds", "link_cmds",
            "mission_cmds", "sim_cmds", "slam_cmds", "split_cmds", "telegram_cmds",
            "teleop_cmds"]
