@@ -304,6 +304,59 @@ def _straighten(xy: NDArray[np.float64], cost: NDArray[np.int64], data: NDArray[
     return keep[:m]
 
 
+WOBBLE_MIN_TURN = 0.01
+"""[rad] turns smaller than this are neither wobbles nor the corners around one (issue
+18 counts curvature above 0.2 1/m on a 0.1 m resampling: turns above 0.02 rad)."""
+
+
+@nb.njit(cache=True)
+def _turn(xy: NDArray[np.float64], a: int, b: int, c: int) -> float:
+    """Signed heading change [rad] at ``xy[b]`` between ``a -> b`` and ``b -> c``."""
+    h0 = math.atan2(xy[b, 1] - xy[a, 1], xy[b, 0] - xy[a, 0])
+    h1 = math.atan2(xy[c, 1] - xy[b, 1], xy[c, 0] - xy[b, 0])
+    d = h1 - h0
+    while d > math.pi:
+        d -= 2.0 * math.pi
+    while d < -math.pi:
+        d += 2.0 * math.pi
+    return d
+
+
+@nb.njit(cache=True)
+def _drop_wobbles(xy: NDArray[np.float64], cost: NDArray[np.int64], data: NDArray[np.uint8],
+                  ox: float, oy: float, res: float, unknown_cost: int,
+                  min_turn: float) -> NDArray[np.int64]:
+    """Indices of the polyline ``xy`` kept by :func:`straighten`'s wobble pass."""
+    n = xy.shape[0]
+    alive = np.ones(n, dtype=np.bool_)
+    changed = True
+    while changed:
+        changed = False
+        idx = np.nonzero(alive)[0]
+        m = len(idx)
+        # vertices idx[1..m-2] have a turn; a wobble needs a turning vertex on each side
+        for q in range(2, m - 2):
+            a, b, c, d, e = idx[q - 2], idx[q - 1], idx[q], idx[q + 1], idx[q + 2]
+            t_prev = _turn(xy, a, b, c)
+            t = _turn(xy, b, c, d)
+            t_next = _turn(xy, c, d, e)
+            if abs(t) < min_turn or abs(t_prev) < min_turn or abs(t_next) < min_turn:
+                continue
+            if not (t * t_prev < 0.0 and t * t_next < 0.0
+                    and abs(t) < abs(t_prev) and abs(t) < abs(t_next)):
+                continue
+            bound = max(cost[b], cost[d])
+            if bound >= INSCRIBED_INFLATED_OBSTACLE:
+                continue
+            bound = min(bound + bound * 3 // 20, INSCRIBED_INFLATED_OBSTACLE - 1)
+            if _chord_max_cost(xy[b, 0], xy[b, 1], xy[d, 0], xy[d, 1], data, ox, oy, res,
+                               unknown_cost) <= bound:
+                alive[c] = False
+                changed = True
+                break
+    return np.nonzero(alive)[0]
+
+
 def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float,
                allow_unknown: bool = False) -> NDArray[np.float64]:
     """The vertices of ``xy`` kept when every stretch that a straight chord can replace is
@@ -317,7 +370,14 @@ def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float
     next door, each S two curvature sign changes (issue 18 allows two per 10 m).  The
     deviation bound keeps the plan where the planner put it (no chord aimed across a
     corridor at a door's centre line, no corner cut: a door approach keeps its shape),
-    the cost rule keeps it as far from obstacles as its own ends."""
+    the cost rule keeps it as far from obstacles as its own ends.
+
+    Then the wobbles go: a vertex that turns against both its neighbours, by less than
+    either of them (a kink of a few degrees left between a walker detour's return and the
+    turn into a door, say), is dropped when the chord between its neighbours passes the
+    same cost rule, whatever its deviation -- the deviation bound keeps the corners the
+    planner made, and a turn smaller than and opposite to both corners around it is not
+    one (each such kink is two curvature sign changes)."""
     xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) < 3:
         return xy.copy()
@@ -325,7 +385,11 @@ def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float
     mx, my, inside = costmap.world_to_map_array(xy)
     raw = costmap.data[my.clip(0, costmap.size_y - 1), mx.clip(0, costmap.size_x - 1)]
     cost = np.where(inside, np.where(raw == NO_INFORMATION, unknown_cost, raw), 254)
-    keep = _straighten(xy, np.ascontiguousarray(cost, dtype=np.int64), costmap.data,
-                       costmap.origin_x, costmap.origin_y, costmap.resolution, unknown_cost,
-                       float(max_deviation))
-    return xy[keep]
+    cost = np.ascontiguousarray(cost, dtype=np.int64)
+    keep = _straighten(xy, cost, costmap.data, costmap.origin_x, costmap.origin_y,
+                       costmap.resolution, unknown_cost, float(max_deviation))
+    kept = np.ascontiguousarray(xy[keep])
+    calm = _drop_wobbles(kept, np.ascontiguousarray(cost[keep]), costmap.data,
+                         costmap.origin_x, costmap.origin_y, costmap.resolution, unknown_cost,
+                         WOBBLE_MIN_TURN)
+    return kept[calm]
