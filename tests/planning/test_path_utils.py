@@ -10,6 +10,7 @@ import pytest
 
 from navstack.core.msgs import Pose2D
 from navstack.costmap.costmap_2d import Costmap2D
+from navstack.interfaces.motion_quality import curvature_sign_changes
 from navstack.planning import (
     NavfnParams,
     NavfnPlanner,
@@ -108,3 +109,64 @@ def test_straighten_never_crosses_cells_costlier_than_the_chord_ends() -> None:
     assert len(out) >= 3 and out[0].tolist() == xy[0].tolist()
     assert out[-1].tolist() == xy[-1].tolist()
     assert _samples_cost(out, cm).max() <= int(_samples_cost(xy, cm).max() * 1.15)
+
+
+
+def _turns(xy: np.ndarray) -> np.ndarray:
+    d = np.diff(xy, axis=0)
+    h = np.arctan2(d[:, 1], d[:, 0])
+    return np.angle(np.exp(1j * np.diff(h)))
+
+
+def _leg() -> tuple[np.ndarray, np.ndarray]:
+    """Corners of a corridor leg heading west: a detour's return (15 deg right), an
+    8 deg kink to the left 0.19 m off the chord past it, a 90 deg right turn into a door;
+    and the leg sampled every ~0.1 m."""
+    corners = [np.array([9.0, 2.0])]
+    h = math.pi
+    for length, turn in ((2.0, 0.0), (2.5, -15.0), (3.0, 8.0), (2.3, -90.0)):
+        h += math.radians(turn)
+        corners.append(corners[-1] + length * np.array([math.cos(h), math.sin(h)]))
+    c = np.array(corners)
+    xy = np.concatenate([np.linspace(c[i], c[i + 1], 25, endpoint=False)
+                         for i in range(len(c) - 1)] + [c[-1:]])
+    return c, xy
+
+
+def test_straighten_drops_a_kink_against_both_corners_around_it() -> None:
+    """The kink lies beyond the deviation bound but turns against both corners around it
+    by less than either, and the chord past it stays in free space: it goes (two
+    curvature sign changes fewer); the corners themselves stay."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    assert np.sign(_turns(corners)).tolist() == [-1.0, 1.0, -1.0]
+    assert curvature_sign_changes(xy) == 2
+    cm = Costmap2D.from_array(np.zeros((140, 220), dtype=np.uint8), 0.05)
+    out = straighten(xy, cm, 0.05)
+    assert curvature_sign_changes(out) == 0
+    assert _distance_to_polyline(corners[2], out) > 0.15  # the kink went
+    for corner in corners[[1, 3]]:  # the two corners stayed (within the bound)
+        assert _distance_to_polyline(corner, out) <= 0.05
+    assert out[0].tolist() == xy[0].tolist() and out[-1].tolist() == xy[-1].tolist()
+
+
+def test_straighten_keeps_a_kink_the_costmap_requires() -> None:
+    """The same leg with a box under the chord past the kink: that chord would cross
+    cells costlier than its ends, so the kink stays."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    data = np.zeros((140, 220), dtype=np.uint8)
+    data[46:50, 86:98] = 254  # x 4.3-4.9, y 2.3-2.5: between the kink and its chord
+    cm = Costmap2D.from_array(data, 0.05)
+    out = straighten(xy, cm, 0.05)
+    assert curvature_sign_changes(out) == 2
+    assert _distance_to_polyline(corners[2], out) <= 0.05
+
+
+def _distance_to_polyline(p: np.ndarray, xy: np.ndarray) -> float:
+    a, b = xy[:-1], xy[1:]
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
