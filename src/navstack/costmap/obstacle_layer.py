@@ -76,8 +76,9 @@ class ObstacleLayerParams(LayerParams):
     instant (Nav2's obstacle layer always does, with a ``tf2_ros::MessageFilter``).  Off:
     a scan whose odometry is not in the TF buffer yet is dropped -- on the in-process bus
     that is a scan stamped at the same instant as an odometry sample still queued, more
-    than half of them in some runs.  Off by default until the single-robot suite is
-    re-measured with it (docs/fleet.md); the packaged fleet turns it on."""
+    than half of them in some runs, all of them for seconds at a time.  Off by default
+    (the parameter is navstack's); the packaged nav2_params.yaml and fleet turn it on
+    (docs/command_path.md, "Clearance")."""
     unmapped_padding: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     """[m] navstack: mark a point the static layer's map does not explain as a disc of
     this radius (module docstring); 0 marks its cell only (Nav2)."""
