@@ -100,6 +100,7 @@ class NavfnPlanner(GridPlannerBase):
         self.allow_unknown = self.params.allow_unknown
         self.use_final_approach_orientation = self.params.use_final_approach_orientation
         self.h_scale = float(COST_NEUTRAL) if self.params.use_astar else 0.0
+        self.clear_start_cell = True  # Nav2 NavFn clearRobotCell
         self._table = navfn_cost_table(self.params.allow_unknown)
         self.descent_fallbacks = 0
         """Plans whose gradient descent failed and that returned the cell path."""
