@@ -146,3 +146,21 @@ def test_kidnap_moves_the_robot_at_the_given_time() -> None:
                       f"({p1.x:.2f}, {p1.y:.2f})"]
     assert stack.sim.sim.collisions == 0
     assert isinstance(p1, Pose2D)
+
+
+def test_no_trip_starts_on_a_walker_or_the_forklift() -> None:
+    """The seed-7 draw once placed four starts under a walker or the forklift at t = 0:
+    collisions no navigation could avoid."""
+    from navstack.benchmarks.chaos import CLEARANCE_M, world_with_fault
+    from navstack.sim.worlds import load_world
+
+    trips = chaos_trips(400, 7, FAULT_KINDS)
+    worlds = {name: load_world(name) for name in {t[1] for t in trips}}
+    movers_seen = 0
+    for _, wname, start, _, fault, _ in trips:
+        for mover in world_with_fault(worlds[wname], fault).moving_obstacles:
+            movers_seen += 1
+            x, y, _ = mover.pose_at(0.0)
+            extent = mover.radius if mover.shape == "circle" else 0.5 * math.hypot(*mover.size)
+            assert math.hypot(x - start.x, y - start.y) >= extent + CLEARANCE_M, (wname, mover.name)
+    assert movers_seen > 0
