@@ -371,6 +371,8 @@ class Escape(MissionBehaviour):
                 self.flip = not self.flip  # that way is blocked: the other way next
                 self.refused = h.action
                 self.flip_refused_forward = h.action.endswith("drive_on_heading")
+            else:
+                self.refused = None  # it moved: both ways are open again
         grid = ctx.latest(self.map_topic, OccupancyGrid, LATCHED)
         pose = ctx.robot_pose()
         if grid is None or pose is None:
