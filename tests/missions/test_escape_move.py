@@ -51,3 +51,38 @@ def test_facing_a_wall_it_backs_up_and_a_refused_way_is_not_repeated() -> None:
     e.refused, e.flip_refused_forward, e.flip = "/backup", False, True  # as update() sets
     forward2, _ = e._choose_move(grid, pose, dist, bearing)
     assert forward2  # nothing better forward: the fallback turns to the other way
+
+
+class _Ctx:
+    """What Escape.update reads once its attempts are used up."""
+
+    def __init__(self, grid: OccupancyGrid, pose: Pose2D) -> None:
+        self.grid, self.pose, self.now = grid, pose, 10.0
+        self.events: list[str] = []
+        self.failures: list[str] = []
+
+    def latest(self, *_: Any) -> OccupancyGrid:
+        return self.grid
+
+    def robot_pose(self) -> Pose2D:
+        return self.pose
+
+    def log(self, text: str) -> None:
+        self.events.append(text)
+
+    def fail(self, behaviour: str, reason: str) -> None:
+        self.failures.append(f"{behaviour}: {reason}")
+
+
+def test_a_best_effort_escape_goes_on_where_no_spot_is_clear() -> None:
+    from py_trees.common import Status
+
+    # a 0.5 m gap: no pose in it is 0.3 m clear of both sides
+    grid = grid_with([(-2.0, 0.25, 2.0, 1.0), (-2.0, -1.0, 2.0, -0.25)])
+    for required, status in ((True, Status.FAILURE), (False, Status.SUCCESS)):
+        ctx: Any = _Ctx(grid, Pose2D(0.0, 0.0, 0.0))
+        e = Escape(ctx, circumscribed_radius=0.3, required=required)
+        e.tries = e.attempts
+        assert e.update() is status
+        assert bool(ctx.failures) is required
+        assert required or ctx.events[-1].endswith("(needs 0.30 m to turn); going on")

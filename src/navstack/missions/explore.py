@@ -279,7 +279,7 @@ class Escape(MissionBehaviour):
 
     def __init__(self, ctx: MissionContext, circumscribed_radius: float = 0.3,
                  map_topic: str = "/map", margin: float = 0.05, attempts: int = 3,
-                 name: str = "Escape", max_move: float = 1.0) -> None:
+                 name: str = "Escape", max_move: float = 1.0, required: bool = True) -> None:
         super().__init__(ctx, name)
         self.radius = circumscribed_radius
         self.map_topic = map_topic
@@ -292,6 +292,7 @@ class Escape(MissionBehaviour):
         self.refused: str | None = None  # the action of the last refused move
         self.flip_refused_forward = False
         self.max_move = max_move
+        self.required = required  # False: a robot that cannot get clear is logged, not failed
 
     def initialise(self) -> None:
         self.handle = None
@@ -383,8 +384,12 @@ class Escape(MissionBehaviour):
         if dist >= self.radius:
             return Status.SUCCESS
         if self.tries >= self.attempts:
-            return self.failed(f"still {dist:.2f} m from an obstacle after {self.tries} "
-                               f"attempts to back away (needs {self.radius:.2f} m to turn)")
+            reason = (f"still {dist:.2f} m from an obstacle after {self.tries} attempts to "
+                      f"back away (needs {self.radius:.2f} m to turn)")
+            if not self.required:  # e.g. in a gap narrower than two turning radii
+                ctx.log(f"{self.name}: {reason}; going on")
+                return Status.SUCCESS
+            return self.failed(reason)
         self.tries += 1
         forward, distance = self._choose_move(grid, pose, dist, bearing)
         if not forward:
@@ -435,7 +440,9 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
              Escape(ctx, circumscribed_radius),
              explore]
     if p.return_to_init:
-        steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome"),
+        # best effort: where no spot is a turning radius clear (a 0.6 m gap) the way home
+        # may still be open -- ReturnHome decides
+        steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome", required=False),
                   ReturnHome(ctx, tolerance=home_tolerance)]
     root = Sequence("explore", memory=True, children=steps)
 
