@@ -122,39 +122,11 @@ def make_path(xy: NDArray[np.float64], goal_theta: float, frame_id: str,
 def _segment_blocked(x0: float, y0: float, x1: float, y1: float, data: NDArray[np.uint8],
                      ox: float, oy: float, res: float, unknown_ok: bool) -> bool:
     """True if any cell the segment passes through is blocked (exact grid traversal,
-    Amanatides & Woo 1987)."""
-    fx0 = (x0 - ox) / res
-    fy0 = (y0 - oy) / res
-    fx1 = (x1 - ox) / res
-    fy1 = (y1 - oy) / res
-    cx = math.floor(fx0)
-    cy = math.floor(fy0)
-    ex = math.floor(fx1)
-    ey = math.floor(fy1)
-    dx = fx1 - fx0
-    dy = fy1 - fy0
-    sx = 1 if dx > 0 else -1
-    sy = 1 if dy > 0 else -1
-    inf = math.inf
-    tdx = abs(1.0 / dx) if dx != 0.0 else inf
-    tdy = abs(1.0 / dy) if dy != 0.0 else inf
-    tx = ((cx + 1 - fx0) if dx > 0 else (fx0 - cx)) * tdx if dx != 0.0 else inf
-    ty = ((cy + 1 - fy0) if dy > 0 else (fy0 - cy)) * tdy if dy != 0.0 else inf
-    n = abs(ex - cx) + abs(ey - cy)
-    for _ in range(n + 1):
-        if cx < 0 or cy < 0 or cx >= data.shape[1] or cy >= data.shape[0]:
-            return True
-        c = data[cy, cx]
-        if (c == NO_INFORMATION and not unknown_ok) or (
-                c != NO_INFORMATION and c >= INSCRIBED_INFLATED_OBSTACLE):
-            return True
-        if tx < ty:
-            cx += sx
-            tx += tdx
-        else:
-            cy += sy
-            ty += tdy
-    return False
+    Amanatides & Woo 1987): inscribed or lethal, off the grid, or unknown unless
+    ``unknown_ok``."""
+    unknown_cost = 0 if unknown_ok else NO_INFORMATION
+    return _chord_max_cost(x0, y0, x1, y1, data, ox, oy, res,
+                           unknown_cost) >= INSCRIBED_INFLATED_OBSTACLE
 
 
 @nb.njit(cache=True)
