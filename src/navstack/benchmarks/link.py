@@ -135,6 +135,10 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
         for f in tmp.iterdir():
             f.unlink()
         tmp.rmdir()
+    if not latencies:
+        raise RuntimeError(f"bench link ({kind}): none of {commands} commands reached the "
+                           f"vehicle; driver link: {driver.stats}; vehicle link: "
+                           f"{far_t.stats}")
     return {**_percentiles(latencies), "lost": float(lost)}
 
 
