@@ -150,3 +150,44 @@ def test_dilate_is_the_iterated_3x3_dilation_sparse_or_dense() -> None:
     corner = np.zeros((6, 6), bool)
     corner[0, 5] = True
     assert dilate(corner, 2).sum() == 9 and dilate(corner, 0).sum() == 1
+
+
+def _pocket_world() -> GridView:
+    """A frontier at the end of a 0.2 m pocket above a room; a second room left of the
+    pocket's wall is nearer the frontier but cannot see it."""
+    occ = np.ones((14, 16), dtype=bool)
+    unknown = np.zeros_like(occ)
+    occ[1:7, 1:15] = False        # bottom room
+    occ[7:11, 9:11] = False       # the pocket
+    occ[11, 9:11] = False
+    unknown[11, 9:11] = True      # its unknown end: the frontier
+    occ[8:13, 1:8] = False        # left room, behind the pocket's wall (column 8)
+    occ[7, 2:5] = False           # its door to the bottom room
+    free = ~occ & ~unknown
+    return GridView(unknown, free, free.copy(), RES)
+
+
+def test_goals_go_where_the_robot_can_turn_and_see_the_frontier() -> None:
+    v = _pocket_world()
+    tight = find_frontiers(v, (0.55, 0.35), min_frontier_size=0.2)
+    (f,) = tight.reachable
+    assert f.goal is not None and f.goal[1] >= 0.8 and 0.9 <= f.goal[0] <= 1.1  # in the pocket
+    roomy = find_frontiers(v, (0.55, 0.35), min_frontier_size=0.2, goal_clearance=0.25,
+                           goal_reach=1.0)
+    (g,) = roomy.reachable
+    assert g.goal is not None
+    rows, cols = g.approach_rows, g.approach_cols
+    occupied = ~v.unknown & ~v.free
+    clearance = ndimage.distance_transform_edt(~occupied, sampling=RES)
+    assert (clearance[rows, cols] >= 0.3 - 1e-9).all()
+    # every approach cell is in the bottom room (the left room is nearer but walled off)
+    assert (rows <= 6).all() and rows.size > 0
+    assert math.hypot(g.goal[0] - 1.0, g.goal[1] - 1.15) <= 1.0 + 1e-9
+
+
+def test_a_frontier_only_tight_spots_reach_keeps_its_near_cells() -> None:
+    v = _pocket_world()
+    fs = find_frontiers(v, (0.55, 0.35), min_frontier_size=0.2, goal_clearance=0.25,
+                        goal_reach=0.3)
+    (f,) = fs.reachable
+    assert f.goal is not None and f.goal[1] >= 0.8  # no roomy cell within 0.3 m: the pocket

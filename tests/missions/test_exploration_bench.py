@@ -56,3 +56,23 @@ def test_budgets_per_strategy_per_world_and_the_better_strategy() -> None:
 def test_workers_must_be_positive() -> None:
     with pytest.raises(ConfigError, match="--workers must be at least 1, got 0"):
         run(False, None, worlds=["arena"], workers=0)
+
+
+def test_unknown_strategy_and_localization_are_named() -> None:
+    with pytest.raises(ConfigError, match="unknown exploration strategy greedy"):
+        run(False, None, worlds=["arena"], strategies=["greedy"])
+    with pytest.raises(ConfigError, match="unknown localization 'amcl'"):
+        run(False, None, worlds=["arena"], localization="amcl")
+
+
+def test_the_cli_selects_worlds_seeds_and_strategies() -> None:
+    from typer.testing import CliRunner
+
+    from navstack.app import app
+
+    res = CliRunner().invoke(app, ["bench", "exploration", "--seeds", "1,x"])
+    assert res.exit_code == 2 and "--seeds takes a comma list of integers, got '1,x'" in \
+        res.output
+    res = CliRunner().invoke(app, ["bench", "exploration", "--worlds", "arena",
+                                   "--strategies", "greedy"])
+    assert res.exit_code == 2 and "unknown exploration strategy greedy" in res.output

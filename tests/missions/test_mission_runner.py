@@ -111,3 +111,27 @@ def test_max_duration_and_wait_for_timeout_fail_with_a_reason() -> None:
     assert result.status is MissionStatus.FAILED
     assert result.reason == "did not finish within max_duration 3 s"
     assert result.duration == pytest.approx(3.1, abs=0.11)
+
+
+def test_return_home_runs_its_between_behaviour_before_each_retry() -> None:
+    from py_trees.behaviour import Behaviour
+    from py_trees.common import Status
+
+    class Count(Behaviour):
+        def __init__(self) -> None:
+            super().__init__("Count")
+            self.runs = 0
+
+        def update(self) -> Status:
+            self.runs += 1
+            return Status.FAILURE  # a failed recovery does not fail the return home
+
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    ctx.results["home"] = Pose2D(2.5, 1.1, 0.0)  # inside the arena's middle box
+    count = Count()
+    home = ReturnHome(ctx, attempts=2, between=count)
+    result = MissionRunner(stack.runtime, Mission("home", home, ctx)).run(timeout=400.0)
+    assert result.status is MissionStatus.FAILED
+    assert result.reason.startswith("ReturnHome: could not return home in 2 attempts: ")
+    assert count.runs == 1

@@ -16,6 +16,26 @@ from navstack.interfaces.cli.common import app, fail, stop_on_sigterm, write_jso
 from navstack.interfaces.cli.options import check_out_file
 
 
+def _comma_list(value: str | None, option: str) -> list[str] | None:
+    """``a,b`` -> ``["a", "b"]`` (None when the option was not given)."""
+    if value is None:
+        return None
+    items = [v.strip() for v in value.split(",") if v.strip()]
+    if not items:
+        raise fail(f"{option} needs at least one name (a comma list), got {value!r}")
+    return items
+
+
+def _seed_list(value: str | None) -> list[int] | None:
+    items = _comma_list(value, "--seeds")
+    if items is None:
+        return None
+    try:
+        return [int(v) for v in items]
+    except ValueError:
+        raise fail(f"--seeds takes a comma list of integers, got {value!r}") from None
+
+
 @app.command()
 def bench(
     suite: Annotated[str, typer.Argument(help="Suite name (see `navstack bench list`).")],
@@ -48,6 +68,17 @@ def bench(
     report: Annotated[Path | None, typer.Option(
         "--report", help="Folder for the sweep report (sweep.json, sweep.md, "
                          "time_to_goal.png).")] = None,
+    worlds: Annotated[str | None, typer.Option(
+        "--worlds", help="Exploration: comma list of worlds (default office,warehouse,"
+                         "arena).")] = None,
+    seeds: Annotated[str | None, typer.Option(
+        "--seeds", help="Exploration: comma list of seeds (default 1,2,3,4,5).")] = None,
+    strategies: Annotated[str | None, typer.Option(
+        "--strategies", help="Exploration: comma list of strategies (default "
+                             "explore_lite,information_gain).")] = None,
+    localization: Annotated[str | None, typer.Option(
+        "--localization", help="Exploration: slam (default) or perfect (given poses, "
+                               "no SLAM error).")] = None,
 ) -> None:
     """Run a benchmark suite; prints a table of metrics and writes JSON.
 
@@ -63,9 +94,12 @@ def bench(
     if json_out is not None:
         check_out_file(json_out, "--json")
     try:
-        given = {"controller": controller, "scenarios": scenarios, "executor": executor,
-                 "workers": workers, "address": address, "faults": faults, "seed": seed,
-                 "report": report}
+        given: dict[str, object] = {
+            "controller": controller, "scenarios": scenarios, "executor": executor,
+            "workers": workers, "address": address, "faults": faults, "seed": seed,
+            "report": report, "worlds": _comma_list(worlds, "--worlds"),
+            "seeds": _seed_list(seeds), "strategies": _comma_list(strategies, "--strategies"),
+            "localization": localization}
         options = {k: v for k, v in given.items() if v is not None}
         with stop_on_sigterm(), StageProgress(f"bench {suite}") as progress:
             result = run_suite(suite, quick, data_dir, options, progress=progress)

@@ -20,7 +20,9 @@ Budgets (issue 16): success in >= 14 of 15 runs per strategy; median time to 90 
 the reference on every world; the information-gain strategy's median time to 90 % below
 explore_lite's on every world; SLAM map update latency p95 <= 1 s and goal-to-first-motion
 p95 <= 0.4 s (the TurtleBot course's figures).  ``--quick``: the arena, one seed, both
-strategies (the CI subset); ``--workers N``: N cases at a time, in processes.
+strategies (the CI subset); ``--workers N``: N cases at a time, in processes;
+``--worlds``, ``--seeds``, ``--strategies`` (comma lists) and ``--localization perfect``
+select a part (one run at a time on a shared machine).
 """
 
 from __future__ import annotations
@@ -211,6 +213,17 @@ def run(quick: bool, data_dir: Path | None, worlds: Sequence[str] | None = None,
     seeds = list(seeds or ((1,) if quick else SEEDS))
     strategies = list(strategies or STRATEGIES)
     jobs = [(w, s, seed) for w in worlds for seed in seeds for s in strategies]
+    unknown = [s for s in strategies if s not in STRATEGIES]
+    if unknown:
+        raise ConfigError(f"unknown exploration strategy {', '.join(unknown)}",
+                          key_path="strategies",
+                          suggestion=f"choose from {', '.join(STRATEGIES)}")
+    if localization not in (None, "slam", "perfect"):
+        raise ConfigError(f"unknown localization {localization!r} for the exploration "
+                          "bench", key_path="localization",
+                          suggestion="slam (default) or perfect")
+    if localization == "slam":
+        localization = None
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}",
                           key_path="workers", suggestion="omit it to run the cases one by one")

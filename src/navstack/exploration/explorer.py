@@ -220,7 +220,8 @@ class FrontierExplorer:
         fs = find_frontiers(view, (robot[0], robot[1]), min_frontier_size=p.min_frontier_size,
                             frontier_reach=p.frontier_reach,
                             start_search_radius=p.start_search_radius,
-                            blacklist=self.blacklist.mask(view), wavefront=self._wavefront)
+                            blacklist=self.blacklist.mask(view), wavefront=self._wavefront,
+                            goal_clearance=p.goal_clearance or 0.0, goal_reach=p.goal_reach)
         self.last = fs
         return fs
 

@@ -106,13 +106,23 @@ class FrontierSet:
 def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
                    min_frontier_size: float = 0.5, frontier_reach: float = 0.3,
                    start_search_radius: float = 1.0, blacklist: BoolArray | None = None,
-                   wavefront: Wavefront | None = None) -> FrontierSet:
+                   wavefront: Wavefront | None = None, goal_clearance: float = 0.0,
+                   goal_reach: float = 1.0) -> FrontierSet:
     """All frontiers of ``view`` seen from the robot at ``robot_xy`` (module docstring).
 
     ``start_search_radius`` [m]: when the robot's cell is not traversable (it touches a
     wall) the wavefront starts from the nearest traversable cell within this radius.
     ``blacklist``: cells that may not be frontier cells.  Reachable frontiers come sorted
     by distance.
+
+    ``goal_clearance`` [m] > 0: approach only from cells where the robot can turn round
+    (at least this far from every obstacle cell -- the footprint's circumscribed radius):
+    a frontier's approach cells are its *roomy* cells within ``frontier_reach``, else its
+    roomy cells within ``goal_reach`` that see it (no obstacle cell on the straight line
+    to its nearest cell), else -- a frontier only tight spots reach -- the cells within
+    ``frontier_reach`` as without the option.  A goal the robot cannot turn round at
+    leaves it wedged for the next one (office runs: 18 frontiers blacklisted after
+    timeouts in such spots, and a return home that RPP refused).
     """
     res = view.resolution
     wf = wavefront or Wavefront()
@@ -135,21 +145,34 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
     # each takes the label of the frontier cell nearest to it
     kept_labels = np.where(keep[labels], labels, 0)
     reach_cells = max(1, math.ceil(frontier_reach / res - 1e-9))
-    # the distance transform only matters within reach_cells of a kept frontier cell: run
+    roomy_goals = goal_clearance > 0.0
+    far_cells = max(reach_cells, math.ceil(goal_reach / res - 1e-9)) if roomy_goals \
+        else reach_cells
+    # the distance transform only matters within far_cells of a kept frontier cell: run
     # it on their bounding box grown by that much (exact; on a warehouse-size map the
     # whole-grid transform was a third of the exploration's planning time)
     kr, kc = np.nonzero(kept_labels)
-    r0, r1 = max(0, int(kr.min()) - reach_cells - 1), int(kr.max()) + reach_cells + 2
-    c0, c1 = max(0, int(kc.min()) - reach_cells - 1), int(kc.max()) + reach_cells + 2
+    r0, r1 = max(0, int(kr.min()) - far_cells - 1), int(kr.max()) + far_cells + 2
+    c0, c1 = max(0, int(kc.min()) - far_cells - 1), int(kc.max()) + far_cells + 2
     box = (slice(r0, r1), slice(c0, c1))
     nearest_dist, (ir, ic) = ndimage.distance_transform_edt(kept_labels[box] == 0,
                                                             return_indices=True)
-    reached = np.isfinite(dist[box]) & view.traversable[box] & (nearest_dist <= reach_cells)
+    reached = np.isfinite(dist[box]) & view.traversable[box] & (nearest_dist <= far_cells)
     br, bc = np.nonzero(reached)
     alabel = kept_labels[box][ir[br, bc], ic[br, bc]]
+    near = nearest_dist[br, bc] <= reach_cells
+    roomy = np.zeros(br.size, dtype=bool)
+    if roomy_goals and br.size:
+        roomy = _roomy(view, (r0, r1, c0, c1), goal_clearance)[br, bc]
+        far = roomy & ~near
+        if far.any():  # a roomy cell beyond frontier_reach must see its frontier cell
+            k = np.flatnonzero(far)
+            roomy[k] = _sees(view, br[k] + r0, bc[k] + c0, ir[br[k], bc[k]] + r0,
+                             ic[br[k], bc[k]] + c0)
     ar, ac = br + r0, bc + c0
     order = np.argsort(alabel, kind="stable")
     ar, ac, alabel = ar[order], ac[order], alabel[order]
+    near, roomy = near[order], roomy[order]
     bounds = np.searchsorted(alabel, np.arange(n + 2))
     fr, fc = np.nonzero(kept_labels)
     flab = kept_labels[fr, fc]
@@ -163,8 +186,10 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
         cols = fc[fbounds[lab]:fbounds[lab + 1]].astype(np.int64)
         pts = view.centres(rows, cols)
         centroid = (float(pts[:, 0].mean()), float(pts[:, 1].mean()))
-        rr = ar[bounds[lab]:bounds[lab + 1]].astype(np.int64)
-        cc = ac[bounds[lab]:bounds[lab + 1]].astype(np.int64)
+        span = slice(bounds[lab], bounds[lab + 1])
+        pick = _approach(near[span], roomy[span])
+        rr = ar[span][pick].astype(np.int64)
+        cc = ac[span][pick].astype(np.int64)
         if rr.size == 0:
             unreachable.append(Frontier(int(lab), rows, cols, int(rows.size),
                                         rows.size * res, centroid, math.inf, None, None))
@@ -180,3 +205,46 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
             (float(approach[k_near, 0]), float(approach[k_near, 1])), rr, cc))
     reachable.sort(key=lambda f: f.distance)
     return FrontierSet(reachable, unreachable, dist, start, mask, too_small)
+
+
+def _approach(near: BoolArray, roomy: BoolArray) -> BoolArray:
+    """Which candidate cells approach a frontier (:func:`find_frontiers`' order of
+    preference: roomy and near, roomy and seeing it, near)."""
+    for pick in (near & roomy, roomy, near):
+        if pick.any():
+            return pick
+    return near
+
+
+def _roomy(view: GridView, box: tuple[int, int, int, int], clearance: float) -> BoolArray:
+    """Cells of ``box`` (r0, r1, c0, c1) at least ``clearance`` [m] (+ half a cell for
+    the cells' extent) from every obstacle cell of ``view``; exact within the box (the
+    transform runs on the box grown by the clearance)."""
+    r0, r1, c0, c1 = box
+    res = view.resolution
+    k = math.ceil(clearance / res) + 1
+    h, w = view.shape
+    g0, g1 = max(0, r0 - k), min(h, r1 + k)
+    h0, h1 = max(0, c0 - k), min(w, c1 + k)
+    occupied = ~view.unknown[g0:g1, h0:h1] & ~view.free[g0:g1, h0:h1]
+    if not occupied.any():
+        clear = np.ones(occupied.shape, dtype=bool)
+    else:
+        clear = ndimage.distance_transform_edt(~occupied, sampling=res) >= clearance + res / 2
+    out = np.zeros((r1 - r0, c1 - c0), dtype=bool)
+    rr0, cc0 = r0 - g0, c0 - h0
+    inner = clear[rr0:rr0 + min(r1, h) - r0, cc0:cc0 + min(c1, w) - c0]
+    out[:inner.shape[0], :inner.shape[1]] = inner
+    return out
+
+
+def _sees(view: GridView, rows: IntArray, cols: IntArray, trows: IntArray,
+          tcols: IntArray) -> BoolArray:
+    """Whether the straight line from each cell to its target cell crosses no obstacle
+    cell (sampled at a quarter cell)."""
+    occupied = ~view.unknown & ~view.free
+    steps = int(max(np.abs(trows - rows).max(), np.abs(tcols - cols).max())) * 4 + 1
+    t = np.linspace(0.0, 1.0, steps + 1)[:, None]
+    r = np.floor(rows + 0.5 + t * (trows - rows)).astype(np.int64)
+    c = np.floor(cols + 0.5 + t * (tcols - cols)).astype(np.int64)
+    return ~occupied[r, c].any(axis=0)

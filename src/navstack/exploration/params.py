@@ -56,6 +56,13 @@ class ExploreParams(Params):
     """Value from which a cell is an obstacle rather than free (frontiers border free)."""
     frontier_reach: float = Field(0.3, gt=0.0)
     """A frontier is approached from traversable cells within this distance [m]."""
+    goal_clearance: float | None = Field(None, ge=0.0)
+    """Send goals only where the robot can turn round: at least this far [m] from every
+    obstacle (frontiers.py).  ``None``: the robot footprint's circumscribed radius in a
+    mission (the explorer alone: 0, off)."""
+    goal_reach: float = Field(1.0, gt=0.0)
+    """How far [m] from a frontier a roomy goal may be (when none is within
+    ``frontier_reach``); it must see the frontier."""
     blacklist_tolerance: float = Field(0.25, ge=0.0)
     """Blacklisted frontier cells are grown by this [m] (explore_lite: 5 cells)."""
     max_goal_attempts: int = Field(2, ge=1)

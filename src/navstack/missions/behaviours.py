@@ -254,11 +254,16 @@ class ReturnHome(MissionBehaviour):
     robot arrives with (no final turn), and after the last attempt anything within
     ``tolerance`` is success -- each logged with the reason.  A goal the navigator
     reached (its goal checker passed) is success within ``tolerance``: the checker's own
-    tolerance may exceed ``precise`` by the localisation noise."""
+    tolerance may exceed ``precise`` by the localisation noise.
+
+    ``between``: a behaviour run before each retry (e.g. exploration's ``Escape``: a
+    robot the controller refused to move -- "collision ahead" on every arc out of a
+    tight spot -- is first moved to where it can turn); its outcome does not fail the
+    return home."""
 
     def __init__(self, ctx: MissionContext, key: str = "home", attempts: int = 3,
                  tolerance: float = 0.3, settle_time: float = 5.0, precise: float = 0.2,
-                 name: str = "ReturnHome") -> None:
+                 name: str = "ReturnHome", between: Behaviour | None = None) -> None:
         super().__init__(ctx, name)
         self.key = key
         self.attempts = attempts
@@ -270,6 +275,8 @@ class ReturnHome(MissionBehaviour):
         self.tries = 0
         self.reasons: list[str] = []
         self.failures_before = 0
+        self.between = between
+        self._recovering = False
 
     def _home(self) -> Pose2D | None:
         home = self.ctx.results.get(self.key)
@@ -291,6 +298,7 @@ class ReturnHome(MissionBehaviour):
         self.nav.stop(Status.INVALID)
         self.failures_before = len(self.ctx.failures)
         self._best = (math.inf, self.ctx.now)
+        self._recovering = False
 
     def _settled(self, dist: float) -> bool:
         """Within tolerance and no closer for ``settle_time``."""
@@ -310,6 +318,13 @@ class ReturnHome(MissionBehaviour):
         home = self._home()
         if home is None:
             return self.failed(f"no home pose stored under '{self.key}' (RememberHome first)")
+        if self._recovering and self.between is not None:
+            self.between.tick_once()
+            if self.between.status is Status.RUNNING:
+                return Status.RUNNING
+            del self.ctx.failures[self.failures_before:]  # best effort
+            self._recovering = False
+            self._best = (math.inf, self.ctx.now)
         self.nav.tick_once()
         status = self.nav.status
         pose = self.ctx.robot_pose()
@@ -340,11 +355,16 @@ class ReturnHome(MissionBehaviour):
                      f"trying again")
         self.nav.stop(Status.INVALID)
         self._best = (math.inf, self.ctx.now)
+        if self.between is not None:
+            self.between.stop(Status.INVALID)
+            self._recovering = True
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
         if new_status is Status.INVALID:
             self.nav.stop(Status.INVALID)
+            if self.between is not None and self.between.status is Status.RUNNING:
+                self.between.stop(Status.INVALID)
 
 
 class SaveMap(MissionBehaviour):

@@ -435,6 +435,8 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
                     home_tolerance: float = 0.3) -> Mission:
     """explore_lite as a mission (module docstring)."""
     p = params or ExploreParams()
+    if p.goal_clearance is None:  # goals where this robot can turn round
+        p = p.updated(goal_clearance=circumscribed_radius)
     explore = Explore(ctx, p, circumscribed_radius=circumscribed_radius)
     steps = [wait_for_map(ctx), RememberHome(ctx),
              Escape(ctx, circumscribed_radius),
@@ -443,7 +445,9 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
         # best effort: where no spot is a turning radius clear (a 0.6 m gap) the way home
         # may still be open -- ReturnHome decides
         steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome", required=False),
-                  ReturnHome(ctx, tolerance=home_tolerance)]
+                  ReturnHome(ctx, tolerance=home_tolerance,
+                             between=Escape(ctx, circumscribed_radius, name="EscapeBeforeRetry",
+                                            required=False))]
     root = Sequence("explore", memory=True, children=steps)
 
     def summary() -> dict[str, Any]:
