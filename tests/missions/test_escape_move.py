@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -67,6 +68,9 @@ class _Ctx:
     def robot_pose(self) -> Pose2D:
         return self.pose
 
+    def pose_in(self, frame: str) -> Pose2D:
+        return self.pose
+
     def log(self, text: str) -> None:
         self.events.append(text)
 
@@ -86,3 +90,21 @@ def test_a_best_effort_escape_goes_on_where_no_spot_is_clear() -> None:
         assert e.update() is status
         assert bool(ctx.failures) is required
         assert required or ctx.events[-1].endswith("(needs 0.30 m to turn); going on")
+
+
+def test_lethal_cells_of_the_local_costmap_count_in_its_own_frame() -> None:
+    # the map is clear; the local costmap (odom, 1 m east of map) has a wall 0.2 m ahead
+    # of the robot (lethal 100) and inflation (99) around it that is not an obstacle
+    clear_map = grid_with([])
+    local = grid_with([(1.2, -2.0, 1.5, 2.0)])
+    data = np.asarray(local.data).reshape(120, 120).copy()
+    data[:, round((1.1 + 3) / 0.05):round((1.2 + 3) / 0.05)] = 99
+    local = OccupancyGrid(info=local.info, data=data)
+    e = escape()
+    map_pose, odom_pose = Pose2D(0.0, 0.0, 0.0), Pose2D(1.0, 0.0, 0.0)
+    assert e._nearest_all(clear_map, map_pose, [])[0] == math.inf
+    dist, bearing = e._nearest_all(clear_map, map_pose, [(local, odom_pose)])
+    assert dist == pytest.approx(0.2, abs=0.03) and abs(bearing) < 0.2
+    forward, distance = e._choose_move(clear_map, map_pose, dist, bearing,
+                                       [(local, odom_pose)])
+    assert not forward and distance == pytest.approx(0.1 + e.margin, abs=0.03)

@@ -90,6 +90,14 @@ class MissionContext:
         except TransformError:
             return None
 
+    def pose_in(self, frame: str) -> Pose2D | None:
+        """The robot's pose in ``frame`` (e.g. a local costmap's ``odom``), ``None`` when
+        TF cannot tell; an empty frame is ``global_frame``."""
+        try:
+            return self.runtime.tf.lookup_pose2d(frame or self.global_frame, self.base_frame)
+        except TransformError:
+            return None
+
     def pose_stamped(self, pose: Pose2D) -> PoseStamped:
         return PoseStamped.from_pose2d(pose, self.global_frame, self.now)
 

@@ -11,7 +11,8 @@ frontier).  When ``visualize`` is on it publishes explore_lite's markers on
 grey when unreachable) and a SPHERE at its goal (green, larger for better).
 
 ``Escape`` handles a start against an obstacle (explore_lite's "starting facing a wall"):
-when an observed obstacle on ``map_topic`` is closer than the robot's turning radius
+when an observed obstacle on ``map_topic`` -- or a lethal cell of the local costmap, what
+the controller judges its arcs on -- is closer than the robot's turning radius
 (``circumscribed_radius``), turning in place would hit it, so the robot first backs away
 (or drives forward when the obstacle is behind it).  ``Explore`` runs the same escape
 after a goal it gave up (stuck) or the navigator aborted, before the next goal: a robot
@@ -27,6 +28,7 @@ part of the mission here (explore_lite fires one goal and forgets it).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence as Seq
 from typing import Any
 
 import numpy as np
@@ -279,10 +281,16 @@ class Escape(MissionBehaviour):
 
     def __init__(self, ctx: MissionContext, circumscribed_radius: float = 0.3,
                  map_topic: str = "/map", margin: float = 0.05, attempts: int = 3,
-                 name: str = "Escape", max_move: float = 1.0, required: bool = True) -> None:
+                 name: str = "Escape", max_move: float = 1.0, required: bool = True,
+                 local_costmap_topic: str | None = "/local_costmap/costmap") -> None:
         super().__init__(ctx, name)
         self.radius = circumscribed_radius
         self.map_topic = map_topic
+        # the controller refuses arcs on the local costmap, whose obstacle layer marks what
+        # the scans see now: a wall the SLAM map has a few centimetres off (pose error), a
+        # door frame narrower than mapped.  Its lethal cells count as obstacles too (a door
+        # the map says is 0.3 m clear, "collision ahead" on every arc out of it: office)
+        self.local_costmap_topic = local_costmap_topic
         self.margin = margin
         self.attempts = attempts
         self.handle: GoalHandle[Any] | None = None
@@ -302,11 +310,13 @@ class Escape(MissionBehaviour):
         self.refused = None
         self.flip_refused_forward = False
 
-    def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D) -> tuple[float, float]:
-        """Distance [m] and bearing (robot frame) of the nearest occupied map cell."""
+    def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D,
+                          threshold: int = 65) -> tuple[float, float]:
+        """Distance [m] and bearing (robot frame) of the nearest cell of ``grid`` at or
+        above ``threshold`` (65: occupied on a map; 100: lethal on a costmap topic)."""
         info = grid.info
         data = np.asarray(grid.data).reshape(info.height, info.width)
-        occ = data >= 65
+        occ = data >= threshold
         res = info.resolution
         c0 = math.floor((pose.x - info.origin.position.x) / res)
         r0 = math.floor((pose.y - info.origin.position.y) / res)
@@ -322,14 +332,41 @@ class Escape(MissionBehaviour):
         bearing = math.atan2(ys[i] - pose.y, xs[i] - pose.x) - pose.theta
         return float(d[i]), math.atan2(math.sin(bearing), math.cos(bearing))
 
+    def _local_layers(self) -> list[tuple[OccupancyGrid, Pose2D]]:
+        """The local costmap and the robot's pose in its frame ([] when there is none)."""
+        if self.local_costmap_topic is None:
+            return []
+        grid = self.ctx.latest(self.local_costmap_topic, OccupancyGrid)
+        if grid is None:
+            return []
+        pose = self.ctx.pose_in(grid.header.frame_id)
+        return [] if pose is None else [(grid, pose)]
+
+    def _nearest_all(self, grid: OccupancyGrid, pose: Pose2D,
+                     local: Seq[tuple[OccupancyGrid, Pose2D]], ahead: float = 0.0
+                     ) -> tuple[float, float]:
+        """The nearest obstacle over the map and the local costmaps' lethal cells, with
+        the robot moved ``ahead`` [m] along its heading (negative: back)."""
+
+        def moved(p: Pose2D) -> Pose2D:
+            return Pose2D(p.x + ahead * math.cos(p.theta), p.y + ahead * math.sin(p.theta),
+                          p.theta)
+
+        best = self._nearest_obstacle(grid, moved(pose))
+        for g, p in local:
+            here = self._nearest_obstacle(g, moved(p), threshold=100)
+            if here[0] < best[0]:
+                best = here
+        return best
+
     def _choose_move(self, grid: OccupancyGrid, pose: Pose2D, dist: float,
-                     bearing: float) -> tuple[bool, float]:
+                     bearing: float, local: Seq[tuple[OccupancyGrid, Pose2D]] = ()
+                     ) -> tuple[bool, float]:
         """``(forward, distance)`` of the straight move that escapes: the shortest one,
         forward or back, whose end pose is ``radius`` clear of the map's obstacles and
         that never comes closer to one than the robot is now (a box beside the robot:
         drive along it until past its end); failing that, the one whose end is
         clearest.  A direction the behaviour server refused is tried last."""
-        c, s = math.cos(pose.theta), math.sin(pose.theta)
         best: tuple[float, bool, float] | None = None  # (clearance, forward, distance)
         found: tuple[float, bool, float] | None = None  # (distance, forward, distance)
         for forward in (False, True):
@@ -338,8 +375,7 @@ class Escape(MissionBehaviour):
             sign = 1.0 if forward else -1.0
             for k in range(1, round(self.max_move / 0.05) + 1):
                 d = 0.05 * k
-                here = Pose2D(pose.x + sign * d * c, pose.y + sign * d * s, pose.theta)
-                clear, _ = self._nearest_obstacle(grid, here)
+                clear, _ = self._nearest_all(grid, pose, local, sign * d)
                 if clear < dist - 0.02:
                     break  # this way runs into something
                 if d >= 0.1 and (best is None or clear > best[0] + 1e-9):
@@ -380,7 +416,10 @@ class Escape(MissionBehaviour):
             return Status.RUNNING
         if grid.header.stamp < self.moved_at:  # judge on a map made after the move
             return Status.RUNNING
-        dist, bearing = self._nearest_obstacle(grid, pose)
+        local = self._local_layers()
+        if any(g.header.stamp < self.moved_at for g, _ in local):
+            return Status.RUNNING
+        dist, bearing = self._nearest_all(grid, pose, local)
         if dist >= self.radius:
             return Status.SUCCESS
         if self.tries >= self.attempts:
@@ -391,7 +430,7 @@ class Escape(MissionBehaviour):
                 return Status.SUCCESS
             return self.failed(reason)
         self.tries += 1
-        forward, distance = self._choose_move(grid, pose, dist, bearing)
+        forward, distance = self._choose_move(grid, pose, dist, bearing, local)
         if not forward:
             goal: Any = m.BackUpGoal(distance, 0.1, 10.0)
             client: Any = ctx.backup
