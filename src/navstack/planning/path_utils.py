@@ -432,10 +432,18 @@ def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float
 
     Then the wobbles go: a vertex that turns against both its neighbours, by less than
     either of them (a kink of a few degrees left between a walker detour's return and the
-    turn into a door, say), is dropped when the chord between its neighbours passes the
-    same cost rule, whatever its deviation -- the deviation bound keeps the corners the
-    planner made, and a turn smaller than and opposite to both corners around it is not
-    one (each such kink is two curvature sign changes)."""
+    turn into a door, say; a swing wide of a person at a door's mouth between the turn
+    into the door and the turn out of it), is replaced, whatever its deviation -- the
+    deviation bound keeps the corners the planner made, and a turn smaller than and
+    opposite to both corners around it is not one (each such kink is two curvature sign
+    changes).  First choice, the chord between its neighbours; else the segment before it
+    carried on until it meets the segment after the next corner, or the segment after it
+    carried back until it meets the segment before the previous corner (the kink and that
+    corner become one corner, the plan's directions before and after kept; the less
+    costly of the two, never longer than the stretch it replaces).  A replacement passes
+    the cost rule above or crosses no cell costlier than the stretch it replaces does:
+    out of a door every chord is costlier than its ends in the rooms, and the kink
+    stayed."""
     xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) < 3:
         return xy.copy()
