@@ -4,6 +4,14 @@ In ``sim`` mode time jumps from event to event, so a simulation runs as fast as 
 allows and the same seed gives the same run; in ``wall`` mode the same loop sleeps until
 each event is due (hardware).  Events at equal times run in the order they were scheduled
 (a sequence number breaks ties), which is what makes runs bit-identical.
+
+Event times are integer nanoseconds (ROS 2's ``rclcpp::Time`` is too); ``now`` is their
+float seconds.  Timer fire times ``start + k * period`` and ``call_later`` delays are
+exact integer sums, so two timers whose fires coincide (a 10 Hz and a 50 Hz timer every
+0.1 s) coincide exactly and run in the order they were scheduled, whatever the clock's
+start value.  With float seconds the tie went to whichever sum rounded lower -- which
+depends on the start value: the office mission run from 1000 s and from 1002 s ran the
+controller before the 22.1 s scan in one and after it in the other, and diverged.
 """
 
 from __future__ import annotations
@@ -17,11 +25,18 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, Literal
 
+from navstack.core.timebase import to_ns, to_s
+
 ClockMode = Literal["sim", "wall"]
 
 
+def _ns_or_inf(t: float) -> float:
+    """``t`` [s] as integer nanoseconds, ``inf`` kept (ints compare with it exactly)."""
+    return to_ns(t) if math.isfinite(t) else t
+
+
 class _Event:
-    """One scheduled call; the heap holds ``(time, seq, event)`` tuples (fast compares)."""
+    """One scheduled call; the heap holds ``(time_ns, seq, event)`` tuples (fast compares)."""
 
     __slots__ = ("args", "cancelled", "fn", "time")
 
@@ -49,24 +64,27 @@ class EventHandle:
 
 
 class Timer:
-    """A periodic callback.  Fire ``k`` happens at ``start + k * period`` (no drift)."""
+    """A periodic callback.  Fire ``k`` happens at ``start + k * period`` (no drift), in
+    integer nanoseconds (``period`` is rounded to the nanosecond, as rclcpp's is)."""
 
     def __init__(self, scheduler: Scheduler, period: float, callback: Callable[[], Any],
-                 start: float) -> None:
-        if not period > 0.0 or not math.isfinite(period):
+                 start: float, *, start_ns: int | None = None) -> None:
+        if not period > 0.0 or not math.isfinite(period) or to_ns(period) < 1:
             raise ValueError(
-                f"timer period must be a positive finite number of seconds, got {period}")
+                f"timer period must be a finite number of seconds >= 1e-9, got {period}")
         self.period = period
         self.callback = callback
         self._scheduler = scheduler
-        self._start = start
+        self._start_ns = to_ns(start) if start_ns is None else start_ns
+        self._period_ns = to_ns(period)
         self._k = 0
-        self._handle: EventHandle | None = scheduler.call_at(start, self._fire)
+        self._handle: EventHandle | None = scheduler.call_at_ns(self._start_ns, self._fire)
         self.fire_count = 0
 
     def _fire(self) -> None:
         self._k += 1
-        self._handle = self._scheduler.call_at(self._start + self._k * self.period, self._fire)
+        self._handle = self._scheduler.call_at_ns(self._start_ns + self._k * self._period_ns,
+                                                  self._fire)
         self.fire_count += 1
         self.callback()
 
@@ -109,7 +127,7 @@ class Scheduler:
         self.rate = rate
         self.clock_offset = clock_offset
         self.epoch = epoch
-        self._queue: list[tuple[float, int, _Event]] = []
+        self._queue: list[tuple[int, int, _Event]] = []
         self._seq = itertools.count()
         self._stopped = False
         self.events_run = 0
@@ -126,20 +144,28 @@ class Scheduler:
         self.late_posts = 0
         self.on_blocked: Callable[[], None] | None = None
         self._wake = threading.Event()
-        if mode == "wall":
-            self._wall0 = time.monotonic()
-            self._t0 = self.clock() if start_time == 0.0 else start_time
-            self._now = self._t0
-        else:
-            self._now = start_time
-            self._wall0 = time.monotonic()
-            self._t0 = start_time
+        self._now_ns = 0
+        self._now = 0.0
+        self._wall0 = time.monotonic()
+        self._set_now_ns(to_ns(self.clock() if mode == "wall" and start_time == 0.0
+                               else start_time))
+        self._t0_ns = self._now_ns
+        self._t0 = self._now
+
+    def _set_now_ns(self, ns: int) -> None:
+        self._now_ns = ns
+        self._now = to_s(ns)
 
     # --- time --------------------------------------------------------------------
     @property
     def now(self) -> float:
         """Current time [s]: simulated time, or wall time in ``wall`` mode."""
         return self._now
+
+    @property
+    def now_ns(self) -> int:
+        """Current time in integer nanoseconds (``now`` is its nearest float)."""
+        return self._now_ns
 
     def clock(self) -> float:
         """The clock's reading right now, from any thread (wall mode: the scaled system
@@ -149,11 +175,9 @@ class Scheduler:
         rate = self.rate or 1.0
         return self.clock_offset + self.epoch + rate * (time.time() - self.epoch)
 
-    def _wall_time_for(self, t: float) -> float | None:
-        if self.mode == "wall":
-            return self._wall0 + (t - self._t0) / (self.rate or 1.0)
-        if self.rate:
-            return self._wall0 + (t - self._t0) / self.rate
+    def _wall_time_for(self, t_ns: int) -> float | None:
+        if self.mode == "wall" or self.rate:
+            return self._wall0 + (t_ns - self._t0_ns) / 1e9 / (self.rate or 1.0)
         return None
 
     # --- other threads -------------------------------------------------------------
@@ -176,12 +200,13 @@ class Scheduler:
         if not inbox:
             return
         if self.mode == "wall":
-            self._now = max(self._now, self.clock())
+            self._set_now_ns(max(self._now_ns, to_ns(self.clock())))
         while inbox:
             t, fn, args = inbox.popleft()
-            if t is not None and t < self._now - 1e-9:
+            t_ns = self._now_ns if t is None else to_ns(t)
+            if t_ns < self._now_ns - 1:
                 self.late_posts += 1  # lockstep: arrived after the loop passed its time
-            self.call_at(self._now if t is None else t, fn, *args)
+            self.call_at_ns(t_ns, fn, *args)
 
     def _wait_for_horizon(self, limit: float) -> None:
         """Blocked by the horizon ``limit``: tell the peers, run posted work, wait to be
@@ -216,21 +241,29 @@ class Scheduler:
     # --- scheduling ------------------------------------------------------------
     def call_at(self, t: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
         """Run ``fn(*args)`` at time ``t`` (not before ``now``)."""
-        t = max(t, self._now)
-        ev = _Event(t, fn, args)
-        heapq.heappush(self._queue, (t, next(self._seq), ev))
+        return self.call_at_ns(to_ns(t), fn, *args)
+
+    def call_at_ns(self, t_ns: int, fn: Callable[..., Any], *args: Any) -> EventHandle:
+        """Run ``fn(*args)`` at integer nanosecond ``t_ns`` (not before ``now``)."""
+        t_ns = max(t_ns, self._now_ns)
+        ev = _Event(to_s(t_ns), fn, args)
+        heapq.heappush(self._queue, (t_ns, next(self._seq), ev))
         return EventHandle(ev)
 
     def call_soon(self, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        return self.call_at(self._now, fn, *args)
+        return self.call_at_ns(self._now_ns, fn, *args)
 
     def call_later(self, delay: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        return self.call_at(self._now + delay, fn, *args)
+        """Run ``fn(*args)`` ``delay`` seconds from now (an exact nanosecond sum)."""
+        return self.call_at_ns(self._now_ns + to_ns(delay), fn, *args)
 
     def create_timer(self, period: float, callback: Callable[[], Any],
                      first_at: float | None = None) -> Timer:
         """Periodic ``callback``; the first call is at ``first_at`` (default ``now + period``)."""
-        return Timer(self, period, callback, self._now + period if first_at is None else first_at)
+        if first_at is not None:
+            return Timer(self, period, callback, first_at)
+        return Timer(self, period, callback, 0.0,
+                     start_ns=self._now_ns + to_ns(period) if math.isfinite(period) else None)
 
     # --- running -------------------------------------------------------------------
     def stop(self) -> None:
@@ -249,7 +282,7 @@ class Scheduler:
             if queue[0][2].cancelled:
                 heapq.heappop(queue)
                 continue
-            if queue[0][0] > limit:
+            if queue[0][0] > _ns_or_inf(limit):
                 self._wait_for_horizon(limit)
                 limit = self.horizon() if self.horizon is not None else math.inf
                 if self._inbox:
@@ -258,10 +291,11 @@ class Scheduler:
             wall = self._wall_time_for(queue[0][0])
             if wall is not None and self._sleep_until(wall):
                 continue  # posted work arrived: it may now be the earliest event
-            ev = heapq.heappop(queue)[2]
+            t_ns, _, ev = heapq.heappop(queue)
             if wall is not None and self.lateness is not None:
                 self.lateness.append(time.monotonic() - wall)
-            self._now = max(self._now, ev.time)
+            if t_ns > self._now_ns:
+                self._set_now_ns(t_ns)
             self.events_run += 1
             ev.fn(*ev.args)
             return True
@@ -273,6 +307,10 @@ class Scheduler:
         Returns ``True`` if ``until`` became true (or ``stop()`` was called), ``False``
         if time ran out.  The clock ends at ``t_end`` when time runs out.
         """
+        return self._run_until_ns(_ns_or_inf(t_end), until)
+
+    def _run_until_ns(self, t_end: float, until: Callable[[], bool] | None) -> bool:
+        """:meth:`run_until` with ``t_end`` in integer nanoseconds (or ``inf``)."""
         self._stopped = False
         queue = self._queue
         while True:
@@ -287,25 +325,30 @@ class Scheduler:
             if queue and queue[0][0] <= t_end:
                 self.step()
                 continue
-            wall = self._wall_time_for(t_end)
-            if wall is None or not math.isfinite(t_end) or not self._sleep_until(wall):
+            if not math.isfinite(t_end):
+                break
+            wall = self._wall_time_for(int(t_end))
+            if wall is None or not self._sleep_until(wall):
                 break
         if math.isfinite(t_end):
             # never past the horizon: work a peer posts for up to the horizon must not
             # find the clock already beyond its time
-            limit = t_end if self.horizon is None else min(t_end, self.horizon())
-            self._now = max(self._now, limit)
+            limit = t_end if self.horizon is None else min(t_end, _ns_or_inf(self.horizon()))
+            self._set_now_ns(max(self._now_ns, int(limit)))
         return False
 
     def run_for(self, duration: float, until: Callable[[], bool] | None = None) -> bool:
-        return self.run_until(self._now + duration, until)
+        """Run for ``duration`` seconds from now (an exact nanosecond sum)."""
+        return self._run_until_ns(self._now_ns + to_ns(duration) if math.isfinite(duration)
+                                  else math.inf, until)
 
     def idle_until(self, t: float) -> None:
         """Move the clock to ``t`` when no event before ``t`` is pending (a lockstep
         follower that acknowledged ``t``: its next work happens at ``t`` or later)."""
+        t_ns = to_ns(t)
         head = min((e[0] for e in self._queue if not e[2].cancelled), default=math.inf)
-        if head >= t:
-            self._now = max(self._now, t)
+        if head >= t_ns:
+            self._set_now_ns(max(self._now_ns, t_ns))
 
     def pending(self) -> int:
         return sum(1 for e in self._queue if not e[2].cancelled)
