@@ -47,7 +47,7 @@ from navstack.core.msgs import (
     Twist2D,
     TwistWithCovarianceStamped,
 )
-from navstack.core.timebase import to_ns, to_s
+from navstack.core.timebase import elapsed, to_ns, to_s
 from navstack.sim.collision import footprint_collides, polygon_hits_moving
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, integrate_pose, make_model
@@ -193,7 +193,8 @@ class Simulator:
     def step(self, dt: float) -> None:
         """Advance physics by ``dt`` seconds (the clock by ``dt`` rounded to the
         nanosecond) under the current command."""
-        cmd = self.command if self.time - self.command_time <= self.cmd_timeout else Twist2D()
+        cmd = (self.command if elapsed(self.time, self.command_time) <= self.cmd_timeout
+               else Twist2D())
         try:
             new = self.model.step(self.state, cmd, dt)
         except InvalidMessage as exc:  # defensive: set_command filters these already
@@ -214,12 +215,12 @@ class Simulator:
             blocked = self._collides(new) or self._touches_package(new)
             hit_robot = not blocked and bool(self.peers) and self._touches_robot(new)
             if blocked or hit_robot:
-                if self.time - self._last_contact_t > self.contact_release_s:
+                if elapsed(self.time, self._last_contact_t) > self.contact_release_s:
                     self.collisions += 1
                     self.robot_collisions += hit_robot
                 self._last_contact_t = self.time
                 new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
-        self.in_contact = self.time - self._last_contact_t <= self.contact_release_s
+        self.in_contact = elapsed(self.time, self._last_contact_t) <= self.contact_release_s
         self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step
