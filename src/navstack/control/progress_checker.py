@@ -29,7 +29,6 @@ from navstack.core.interfaces import ProgressChecker
 from navstack.core.msgs import Pose2D
 from navstack.core.params import Params
 from navstack.core.plugins import PROGRESS_CHECKERS, register_progress_checker
-from navstack.core.timebase import elapsed
 
 
 class SimpleProgressCheckerParams(Params):
@@ -82,7 +81,7 @@ class SimpleProgressChecker(ProgressChecker):
         if base is None or now < self.baseline_time or self._moved_enough(pose, base):
             self.baseline_pose, self.baseline_time = pose, now
             return True
-        return elapsed(now, self.baseline_time) <= self.params.movement_time_allowance
+        return now - self.baseline_time <= self.params.movement_time_allowance
 
     def failure_message(self) -> str:
         p = self.params
@@ -147,7 +146,7 @@ class GoalProgressChecker(ProgressChecker):
         if base is None or now < self.baseline_time or dist < base - self.params.progress_epsilon:
             self.baseline_distance, self.baseline_time = dist, now
             return True
-        return elapsed(now, self.baseline_time) <= self.params.dwell_time
+        return now - self.baseline_time <= self.params.dwell_time
 
     def failure_message(self) -> str:
         p = self.params

@@ -32,7 +32,6 @@ from pydantic import Field
 from navstack.core.config_files import ros_parameters
 from navstack.core.errors import ConfigError, ConfigErrors
 from navstack.core.params import Params
-from navstack.core.timebase import elapsed
 
 __all__ = ["MuxAction", "MuxEntry", "TwistMux", "TwistMuxParams", "twist_mux_params"]
 
@@ -161,7 +160,7 @@ class _Slot:
 
     def expired(self, now: float) -> bool:
         t = self.entry.timeout
-        return t > 0.0 and (self.stamp is None or elapsed(now, self.stamp) > t)
+        return t > 0.0 and (self.stamp is None or now - self.stamp > t)
 
 
 class TwistMux:

@@ -31,7 +31,6 @@ from pydantic import Field, model_validator
 
 from navstack.core.msgs import Twist2D
 from navstack.core.params import Params
-from navstack.core.timebase import elapsed
 
 __all__ = ["OdomSmoother", "VelocitySmoother", "VelocitySmootherParams"]
 
@@ -168,7 +167,7 @@ class VelocitySmoother:
         if self.target is None or self.stopped:
             return None
         target = self.target
-        if elapsed(now, self.last_command_t) > p.velocity_timeout:
+        if now - self.last_command_t > p.velocity_timeout:
             if self.state == Twist2D():
                 self.stopped = True
                 return None

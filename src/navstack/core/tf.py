@@ -45,7 +45,6 @@ from navstack.core.msgs import (
     TransformStamped,
     Vector3,
 )
-from navstack.core.timebase import to_ns
 
 TIME_TOLERANCE = 1e-6
 """Lookups this close [s] outside an edge's window use the end sample instead of failing
@@ -193,12 +192,7 @@ class _Edge:
         if t1 == t:
             return self.data[i]
         t0 = times[i - 1]
-        # the fraction from whole nanoseconds: float differences of absolute stamps carry
-        # their rounding (1e-13 s at 1000 s, more at larger stamps), so the same instants
-        # interpolated differently with the clock's start value
-        n0, span = to_ns(t0), to_ns(t1) - to_ns(t0)
-        f = (to_ns(t) - n0) / span if span > 0 else (t - t0) / (t1 - t0)
-        return tf_interpolate(self.data[i - 1], self.data[i], f)
+        return tf_interpolate(self.data[i - 1], self.data[i], (t - t0) / (t1 - t0))
 
 
 class _Chain:

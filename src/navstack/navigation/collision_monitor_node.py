@@ -53,7 +53,6 @@ from navstack.core.msgs import (
     Twist2D,
 )
 from navstack.core.polygon import Footprint
-from navstack.core.timebase import elapsed
 from navstack.costmap.map_distance import MapDistance
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
@@ -189,7 +188,7 @@ class CollisionMonitorNode(Node):
         if out == Twist2D():
             if self._stop_since is None:
                 self._stop_since = self.now
-            elif elapsed(self.now, self._stop_since) > self.params.stop_pub_timeout:
+            elif self.now - self._stop_since > self.params.stop_pub_timeout:
                 return  # Nav2: zero only for stop_pub_timeout after a stop
         else:
             self._stop_since = None

@@ -29,7 +29,6 @@ from navstack.core.params import Params
 from navstack.core.plugins import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS
 from navstack.core.polygon import Footprint
 from navstack.core.registry import ClassRegistry
-from navstack.core.timebase import elapsed
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.messages import (
     FOLLOW_PATH,
@@ -231,7 +230,7 @@ class ControllerServer(Node):
         try:
             cmd = controller.compute(pose, self._velocity, path, costmap, self.now)
         except (ControllerError, InvalidMessage) as exc:
-            if elapsed(self.now, self._last_valid_cmd_t) > self.params.failure_tolerance:
+            if self.now - self._last_valid_cmd_t > self.params.failure_tolerance:
                 code = ControllerErrorCode.INVALID_PATH if isinstance(
                     exc, InvalidPath | InvalidMessage) else ControllerErrorCode.NO_VALID_CONTROL
                 self._abort(code, f"controller failed for longer than failure_tolerance "

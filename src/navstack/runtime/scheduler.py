@@ -5,13 +5,14 @@ allows and the same seed gives the same run; in ``wall`` mode the same loop slee
 each event is due (hardware).  Events at equal times run in the order they were scheduled
 (a sequence number breaks ties), which is what makes runs bit-identical.
 
-Event times are integer nanoseconds (ROS 2's ``rclcpp::Time`` is too); ``now`` is their
-float seconds.  Timer fire times ``start + k * period`` and ``call_later`` delays are
-exact integer sums, so two timers whose fires coincide (a 10 Hz and a 50 Hz timer every
-0.1 s) coincide exactly and run in the order they were scheduled, whatever the clock's
-start value.  With float seconds the tie went to whichever sum rounded lower -- which
-depends on the start value: the office mission run from 1000 s and from 1002 s ran the
-controller before the 22.1 s scan in one and after it in the other, and diverged.
+Event times are kept as seconds *elapsed since the clock's start* (``now`` is
+``start + elapsed``), so a run's timer arithmetic -- ``first + k * period`` sums, ties
+between coinciding fires of timers of different periods, ``call_later`` and ``run_for``
+sums -- is the same float arithmetic whatever the start value: a run started at 1000 s or
+1030 s (the clock of a robot whose clock is off) orders its events exactly like the run
+started at 0.  With absolute float times the ties went to whichever sum rounded lower,
+which depends on the start value: the office mission from 1000 s and from 1002 s ran
+the controller before the 22.1 s scan in one and after it in the other, and diverged.
 """
 
 from __future__ import annotations
@@ -25,18 +26,11 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, Literal
 
-from navstack.core.timebase import to_ns, to_s
-
 ClockMode = Literal["sim", "wall"]
 
 
-def _ns_or_inf(t: float) -> float:
-    """``t`` [s] as integer nanoseconds, ``inf`` kept (ints compare with it exactly)."""
-    return to_ns(t) if math.isfinite(t) else t
-
-
 class _Event:
-    """One scheduled call; the heap holds ``(time_ns, seq, event)`` tuples (fast compares)."""
+    """One scheduled call; the heap holds ``(time, seq, event)`` tuples (fast compares)."""
 
     __slots__ = ("args", "cancelled", "fn", "time")
 
@@ -65,26 +59,25 @@ class EventHandle:
 
 class Timer:
     """A periodic callback.  Fire ``k`` happens at ``start + k * period`` (no drift), in
-    integer nanoseconds (``period`` is rounded to the nanosecond, as rclcpp's is)."""
+    the scheduler's elapsed time (``start`` absolute, or ``start_rel`` elapsed)."""
 
     def __init__(self, scheduler: Scheduler, period: float, callback: Callable[[], Any],
-                 start: float, *, start_ns: int | None = None) -> None:
-        if not period > 0.0 or not math.isfinite(period) or to_ns(period) < 1:
+                 start: float, *, start_rel: float | None = None) -> None:
+        if not period > 0.0 or not math.isfinite(period):
             raise ValueError(
-                f"timer period must be a finite number of seconds >= 1e-9, got {period}")
+                f"timer period must be a positive finite number of seconds, got {period}")
         self.period = period
         self.callback = callback
         self._scheduler = scheduler
-        self._start_ns = to_ns(start) if start_ns is None else start_ns
-        self._period_ns = to_ns(period)
+        self._start = scheduler.to_elapsed(start) if start_rel is None else start_rel
         self._k = 0
-        self._handle: EventHandle | None = scheduler.call_at_ns(self._start_ns, self._fire)
+        self._handle: EventHandle | None = scheduler.call_at_elapsed(self._start, self._fire)
         self.fire_count = 0
 
     def _fire(self) -> None:
         self._k += 1
-        self._handle = self._scheduler.call_at_ns(self._start_ns + self._k * self._period_ns,
-                                                  self._fire)
+        self._handle = self._scheduler.call_at_elapsed(self._start + self._k * self.period,
+                                                       self._fire)
         self.fire_count += 1
         self.callback()
 
@@ -127,7 +120,7 @@ class Scheduler:
         self.rate = rate
         self.clock_offset = clock_offset
         self.epoch = epoch
-        self._queue: list[tuple[int, int, _Event]] = []
+        self._queue: list[tuple[float, int, _Event]] = []
         self._seq = itertools.count()
         self._stopped = False
         self.events_run = 0
@@ -144,17 +137,15 @@ class Scheduler:
         self.late_posts = 0
         self.on_blocked: Callable[[], None] | None = None
         self._wake = threading.Event()
-        self._now_ns = 0
-        self._now = 0.0
-        self._wall0 = time.monotonic()
-        self._set_now_ns(to_ns(self.clock() if mode == "wall" and start_time == 0.0
-                               else start_time))
-        self._t0_ns = self._now_ns
-        self._t0 = self._now
-
-    def _set_now_ns(self, ns: int) -> None:
-        self._now_ns = ns
-        self._now = to_s(ns)
+        if mode == "wall":
+            self._wall0 = time.monotonic()
+            self._t0 = self.clock() if start_time == 0.0 else start_time
+        else:
+            self._wall0 = time.monotonic()
+            self._t0 = start_time
+        #: seconds since the start: the heap's keys and the timers' arithmetic
+        self._el = 0.0
+        self._now = self._t0
 
     # --- time --------------------------------------------------------------------
     @property
@@ -163,9 +154,18 @@ class Scheduler:
         return self._now
 
     @property
-    def now_ns(self) -> int:
-        """Current time in integer nanoseconds (``now`` is its nearest float)."""
-        return self._now_ns
+    def elapsed(self) -> float:
+        """Seconds since the clock's start: the same float, instant by instant, whatever
+        the start value (``now`` is ``start + elapsed``)."""
+        return self._el
+
+    def to_elapsed(self, t: float) -> float:
+        """Clock time ``t`` -> seconds since the start."""
+        return t - self._t0
+
+    def _set_el(self, el: float) -> None:
+        self._el = el
+        self._now = self._t0 + el
 
     def clock(self) -> float:
         """The clock's reading right now, from any thread (wall mode: the scaled system
@@ -175,9 +175,9 @@ class Scheduler:
         rate = self.rate or 1.0
         return self.clock_offset + self.epoch + rate * (time.time() - self.epoch)
 
-    def _wall_time_for(self, t_ns: int) -> float | None:
+    def _wall_time_for(self, el: float) -> float | None:
         if self.mode == "wall" or self.rate:
-            return self._wall0 + (t_ns - self._t0_ns) / 1e9 / (self.rate or 1.0)
+            return self._wall0 + el / (self.rate or 1.0)
         return None
 
     # --- other threads -------------------------------------------------------------
@@ -200,13 +200,13 @@ class Scheduler:
         if not inbox:
             return
         if self.mode == "wall":
-            self._set_now_ns(max(self._now_ns, to_ns(self.clock())))
+            self._set_el(max(self._el, self.clock() - self._t0))
         while inbox:
             t, fn, args = inbox.popleft()
-            t_ns = self._now_ns if t is None else to_ns(t)
-            if t_ns < self._now_ns - 1:
+            el = self._el if t is None else t - self._t0
+            if el < self._el - 1e-9:
                 self.late_posts += 1  # lockstep: arrived after the loop passed its time
-            self.call_at_ns(t_ns, fn, *args)
+            self.call_at_elapsed(el, fn, *args)
 
     def _wait_for_horizon(self, limit: float) -> None:
         """Blocked by the horizon ``limit``: tell the peers, run posted work, wait to be
@@ -241,29 +241,27 @@ class Scheduler:
     # --- scheduling ------------------------------------------------------------
     def call_at(self, t: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
         """Run ``fn(*args)`` at time ``t`` (not before ``now``)."""
-        return self.call_at_ns(to_ns(t), fn, *args)
+        return self.call_at_elapsed(t - self._t0, fn, *args)
 
-    def call_at_ns(self, t_ns: int, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        """Run ``fn(*args)`` at integer nanosecond ``t_ns`` (not before ``now``)."""
-        t_ns = max(t_ns, self._now_ns)
-        ev = _Event(to_s(t_ns), fn, args)
-        heapq.heappush(self._queue, (t_ns, next(self._seq), ev))
+    def call_at_elapsed(self, el: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
+        """Run ``fn(*args)`` ``el`` seconds after the clock's start (not before ``now``)."""
+        el = max(el, self._el)
+        ev = _Event(self._t0 + el, fn, args)
+        heapq.heappush(self._queue, (el, next(self._seq), ev))
         return EventHandle(ev)
 
     def call_soon(self, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        return self.call_at_ns(self._now_ns, fn, *args)
+        return self.call_at_elapsed(self._el, fn, *args)
 
     def call_later(self, delay: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        """Run ``fn(*args)`` ``delay`` seconds from now (an exact nanosecond sum)."""
-        return self.call_at_ns(self._now_ns + to_ns(delay), fn, *args)
+        return self.call_at_elapsed(self._el + delay, fn, *args)
 
     def create_timer(self, period: float, callback: Callable[[], Any],
                      first_at: float | None = None) -> Timer:
         """Periodic ``callback``; the first call is at ``first_at`` (default ``now + period``)."""
         if first_at is not None:
             return Timer(self, period, callback, first_at)
-        return Timer(self, period, callback, 0.0,
-                     start_ns=self._now_ns + to_ns(period) if math.isfinite(period) else None)
+        return Timer(self, period, callback, 0.0, start_rel=self._el + period)
 
     # --- running -------------------------------------------------------------------
     def stop(self) -> None:
@@ -282,7 +280,7 @@ class Scheduler:
             if queue[0][2].cancelled:
                 heapq.heappop(queue)
                 continue
-            if queue[0][0] > _ns_or_inf(limit):
+            if queue[0][0] > limit - self._t0:
                 self._wait_for_horizon(limit)
                 limit = self.horizon() if self.horizon is not None else math.inf
                 if self._inbox:
@@ -291,11 +289,11 @@ class Scheduler:
             wall = self._wall_time_for(queue[0][0])
             if wall is not None and self._sleep_until(wall):
                 continue  # posted work arrived: it may now be the earliest event
-            t_ns, _, ev = heapq.heappop(queue)
+            el, _, ev = heapq.heappop(queue)
             if wall is not None and self.lateness is not None:
                 self.lateness.append(time.monotonic() - wall)
-            if t_ns > self._now_ns:
-                self._set_now_ns(t_ns)
+            if el > self._el:
+                self._set_el(el)
             self.events_run += 1
             ev.fn(*ev.args)
             return True
@@ -307,10 +305,10 @@ class Scheduler:
         Returns ``True`` if ``until`` became true (or ``stop()`` was called), ``False``
         if time ran out.  The clock ends at ``t_end`` when time runs out.
         """
-        return self._run_until_ns(_ns_or_inf(t_end), until)
+        return self._run_until_el(t_end - self._t0, until)
 
-    def _run_until_ns(self, t_end: float, until: Callable[[], bool] | None) -> bool:
-        """:meth:`run_until` with ``t_end`` in integer nanoseconds (or ``inf``)."""
+    def _run_until_el(self, t_end: float, until: Callable[[], bool] | None) -> bool:
+        """:meth:`run_until` with ``t_end`` in elapsed seconds."""
         self._stopped = False
         queue = self._queue
         while True:
@@ -325,30 +323,27 @@ class Scheduler:
             if queue and queue[0][0] <= t_end:
                 self.step()
                 continue
-            if not math.isfinite(t_end):
-                break
-            wall = self._wall_time_for(int(t_end))
-            if wall is None or not self._sleep_until(wall):
+            wall = self._wall_time_for(t_end)
+            if wall is None or not math.isfinite(t_end) or not self._sleep_until(wall):
                 break
         if math.isfinite(t_end):
             # never past the horizon: work a peer posts for up to the horizon must not
             # find the clock already beyond its time
-            limit = t_end if self.horizon is None else min(t_end, _ns_or_inf(self.horizon()))
-            self._set_now_ns(max(self._now_ns, int(limit)))
+            limit = t_end if self.horizon is None else min(t_end,
+                                                            self.horizon() - self._t0)
+            self._set_el(max(self._el, limit))
         return False
 
     def run_for(self, duration: float, until: Callable[[], bool] | None = None) -> bool:
-        """Run for ``duration`` seconds from now (an exact nanosecond sum)."""
-        return self._run_until_ns(self._now_ns + to_ns(duration) if math.isfinite(duration)
-                                  else math.inf, until)
+        return self._run_until_el(self._el + duration, until)
 
     def idle_until(self, t: float) -> None:
         """Move the clock to ``t`` when no event before ``t`` is pending (a lockstep
         follower that acknowledged ``t``: its next work happens at ``t`` or later)."""
-        t_ns = to_ns(t)
+        el = t - self._t0
         head = min((e[0] for e in self._queue if not e[2].cancelled), default=math.inf)
-        if head >= t_ns:
-            self._set_now_ns(max(self._now_ns, t_ns))
+        if head >= el:
+            self._set_el(max(self._el, el))
 
     def pending(self) -> int:
         return sum(1 for e in self._queue if not e[2].cancelled)

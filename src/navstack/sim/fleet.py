@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D
-from navstack.core.timebase import to_ns
 from navstack.sim.collision import footprint_collides, polygons_distance
 from navstack.sim.robot import RobotParams
 from navstack.sim.simulator import Simulator
@@ -104,9 +103,8 @@ class FleetSimulator:
     def advance_to(self, t: float) -> None:
         """Step every robot up to time ``t`` (sub-steps of at most ``physics_dt``)."""
         sims = self.sims
-        t_ns, dt_ns = to_ns(t), max(1, to_ns(self.physics_dt))
-        while sims[0].time_ns < t_ns:  # whole-nanosecond steps (Simulator.advance_to_ns)
-            dt = min(dt_ns, t_ns - sims[0].time_ns) / 1e9
+        while sims[0].time < t - 1e-9:
+            dt = min(self.physics_dt, t - sims[0].time)
             for sim in sims:  # the owner first: it advances the shared obstacles
                 sim.step(dt)
             self._update_separation()

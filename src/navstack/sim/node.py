@@ -49,7 +49,6 @@ from navstack.core.msgs import (
     Vector3,
 )
 from navstack.core.msgs.geometry_msgs import Quaternion
-from navstack.core.timebase import to_ns
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 from navstack.sim.fleet import FleetSimulator
@@ -73,13 +72,13 @@ class SimulatorNode(Node):
         self.wired = frozenset(wired)
         self.sim = sim
         self.physics_dt = 1.0 / physics_rate_hz
-        self._physics_dt_ns = max(1, to_ns(self.physics_dt))
         self.perfect_localization = perfect_localization
         self.clock_period = 0.1  # /clock for recorders; in-process nodes use the scheduler
         self._last_clock_t = -1.0
         self.map_odom_period = 0.1
         self.map_odom_tolerance = 0.1
-        self._next_map_odom_ns: int | None = None
+        self._next_map_odom_t = 0.0  # elapsed seconds (scheduler.elapsed)
+        self._physics_el: float | None = None
         self._last_imu_t = 0.0
         self._odom_after_imu = False
         self._odom_pose = Pose2D()
@@ -163,11 +162,19 @@ class SimulatorNode(Node):
     # --- callbacks -------------------------------------------------------------------
     def advance(self) -> None:
         """Step physics up to the current time (sub-steps of at most ``physics_dt``)."""
-        sim, now = self.sim, self.now
-        now_ns = self.runtime.scheduler.now_ns
-        if sim.time_ns >= now_ns:
+        sim, now, dt = self.sim, self.now, self.physics_dt
+        # physics steps from the scheduler's elapsed time and the physics' own elapsed
+        # sum: the same floats whatever the clock's start value (``now - sim.time`` on
+        # absolute seconds gave remainders that differed in their last bits with it)
+        el = self.runtime.scheduler.elapsed
+        if self._physics_el is None:
+            self._physics_el = self.runtime.scheduler.to_elapsed(sim.time)
+        if self._physics_el >= el - 1e-9:
             return
-        sim.advance_to_ns(now_ns, self._physics_dt_ns)
+        while self._physics_el < el - 1e-9:
+            step = min(dt, el - self._physics_el)
+            sim.step(step)
+            self._physics_el += step
         if now - self._last_clock_t >= self.clock_period - 1e-9:
             self._last_clock_t = now
             self.pub_clock.publish(Clock(now))
@@ -211,19 +218,16 @@ class SimulatorNode(Node):
         self._odom_pose = p.to_pose2d()
         tfs = [TransformStamped(Header(now, odom.header.frame_id), odom.child_frame_id,
                                 Transform(Vector3(p.position.x, p.position.y, 0.0), p.orientation))]
-        now_ns = self.runtime.scheduler.now_ns
-        if self.perfect_localization and (self._next_map_odom_ns is None
-                                          or now_ns >= self._next_map_odom_ns):
+        el = self.runtime.scheduler.elapsed  # the rate on elapsed time: start-independent
+        if self.perfect_localization and el >= self._next_map_odom_t:
             # like AMCL: map->odom at a lower rate, future-dated by transform_tolerance
-            # so lookups at the newest odometry time never wait for it.  The rate is
-            # kept in whole nanoseconds: a float ``now >= next`` at the 50 Hz odometry's
-            # instants fell either way with the clock's start value
+            # so lookups at the newest odometry time never wait for it
             transform = Transform.from_pose2d(self.sim.pose.compose(self._odom_pose.inverse()))
-            if self._next_map_odom_ns is None:
+            if self._next_map_odom_t == 0.0:
                 tfs.append(TransformStamped(Header(now, "map"), odom.header.frame_id, transform))
             tfs.append(TransformStamped(Header(now + self.map_odom_tolerance, "map"),
                                         odom.header.frame_id, transform))
-            self._next_map_odom_ns = now_ns + to_ns(self.map_odom_period)
+            self._next_map_odom_t = el + self.map_odom_period
         self.pub_tf.publish(TFMessage(tuple(tfs)))
 
     def _imu_due(self, now: float) -> bool:

@@ -47,7 +47,6 @@ from navstack.core.msgs import (
     Twist2D,
     TwistWithCovarianceStamped,
 )
-from navstack.core.timebase import elapsed, to_ns, to_s
 from navstack.sim.collision import footprint_collides, polygon_hits_moving
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, integrate_pose, make_model
@@ -95,9 +94,7 @@ class Simulator:
         self.command = Twist2D()
         self.command_time = -math.inf
         self.cmd_timeout = 0.5
-        self.time_ns = 0
-        """The physics clock in integer nanoseconds (:attr:`time` is its float second)."""
-        self._time = 0.0
+        self.time = 0.0
         self.collisions = 0
         self.in_contact = False
         self.contact_release_s = 0.5
@@ -168,41 +165,17 @@ class Simulator:
     def pose(self) -> Pose2D:
         return Pose2D(self.state.x, self.state.y, self.state.yaw)
 
-    @property
-    def time(self) -> float:
-        """The physics clock [s]: set it to start the world at a process clock's reading;
-        :meth:`step` advances it by whole nanoseconds (no float sum drifting with the
-        start value)."""
-        return self._time
-
-    @time.setter
-    def time(self, value: float) -> None:
-        self.time_ns = to_ns(value)
-        self._time = to_s(self.time_ns)
-
     # --- physics -------------------------------------------------------------------
-    def advance_to_ns(self, t_ns: int, max_dt_ns: int) -> None:
-        """Step physics up to ``t_ns`` [ns] in sub-steps of at most ``max_dt_ns``.
-
-        Step lengths are whole-nanosecond differences, so they depend on the elapsed time
-        only: the same run started at 0 s, 1000 s or 1.8e9 s steps identically (float
-        ``now - time`` remainders differed in their last bits with the start value)."""
-        while self.time_ns < t_ns:
-            self.step(min(max_dt_ns, t_ns - self.time_ns) / 1e9)
-
     def step(self, dt: float) -> None:
-        """Advance physics by ``dt`` seconds (the clock by ``dt`` rounded to the
-        nanosecond) under the current command."""
-        cmd = (self.command if elapsed(self.time, self.command_time) <= self.cmd_timeout
-               else Twist2D())
+        """Advance physics by ``dt`` seconds under the current command."""
+        cmd = self.command if self.time - self.command_time <= self.cmd_timeout else Twist2D()
         try:
             new = self.model.step(self.state, cmd, dt)
         except InvalidMessage as exc:  # defensive: set_command filters these already
             self.rejected_commands += 1
             self.last_rejection = str(exc)
             new = self.model.step(self.state, Twist2D(), dt)
-        self.time_ns += to_ns(dt)
-        self._time = to_s(self.time_ns)
+        self.time += dt
         if self.obstacle_clocks:
             owner = self.obstacle_owner
             if owner is None:
@@ -215,12 +188,12 @@ class Simulator:
             blocked = self._collides(new) or self._touches_package(new)
             hit_robot = not blocked and bool(self.peers) and self._touches_robot(new)
             if blocked or hit_robot:
-                if elapsed(self.time, self._last_contact_t) > self.contact_release_s:
+                if self.time - self._last_contact_t > self.contact_release_s:
                     self.collisions += 1
                     self.robot_collisions += hit_robot
                 self._last_contact_t = self.time
                 new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
-        self.in_contact = elapsed(self.time, self._last_contact_t) <= self.contact_release_s
+        self.in_contact = self.time - self._last_contact_t <= self.contact_release_s
         self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
         self.state = new
         if self.odometry is not None:  # wheel encoders count every step

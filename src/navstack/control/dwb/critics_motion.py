@@ -23,7 +23,6 @@ from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.geometry import angle_diff
 from navstack.core.msgs import Pose2D, Twist2D
 from navstack.core.polygon import Footprint
-from navstack.core.timebase import elapsed
 
 _SPEED_EPS = 1e-12
 
@@ -194,7 +193,7 @@ class OscillationCritic(TrajectoryCritic[OscillationParams]):
         if p.oscillation_reset_angle >= 0.0 and abs(angle_diff(
                 self.pose.theta, self.prev_stationary_pose.theta)) > p.oscillation_reset_angle:
             return True
-        return p.oscillation_reset_time >= 0.0 and elapsed(now, self.prev_reset_time) > \
+        return p.oscillation_reset_time >= 0.0 and now - self.prev_reset_time > \
             p.oscillation_reset_time
 
     def debrief(self, cmd: Twist2D, ctx: CriticContext) -> None:
