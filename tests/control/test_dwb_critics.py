@@ -23,12 +23,7 @@ from navstack.control.dwb.critics import (
 from navstack.control.dwb.trajectory_generator import LimitedAccelGenerator
 from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D, Twist2D
-from navstack.costmap.costmap_2d import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    LETHAL_OBSTACLE,
-    NO_INFORMATION,
-    Costmap2D,
-)
+from navstack.costmap.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
 
 from .scenes import empty_costmap, straight_path
 
@@ -182,29 +177,6 @@ def test_path_dist_scores_end_distance_and_rejects_unreachable() -> None:
     critic.prepare(ctx)
     assert critic.score(batch, ctx).tolist() == [-3.0, -3.0]  # unreachable area
     assert critic.reasons[2] == "unreachable area"
-
-
-def test_path_dist_lets_a_robot_inside_the_inscribed_band_drive_out() -> None:
-    # the robot grazed a door post: it and every pose of its short trajectories lie in
-    # the inscribed band (rows 47-53), the plan 6 cells to its left outside it.  The wave
-    # must value the band's cells (they are scored, not blocked, while the robot starts
-    # in it); it used to stop before them and reject every sample as unreachable
-    cm = empty_costmap()
-    cm.data[47:54, 40:60] = INSCRIBED_INFLATED_OBSTACLE
-    plan = straight_path(2.0, y=0.3).as_array()
-    batch = _batch([[0.2, 0.0, 0.0], [0.2, 0.0, 0.5]])
-    critic = _make(PathDistCritic)
-    assert isinstance(critic, PathDistCritic)
-    ctx = _ctx(plan=plan, costmap=cm, batch=batch)
-    assert critic.prepare(ctx)
-    s = critic.score(batch, ctx)
-    assert s[0] == 6.0 and 0.0 <= s[1] < 6.0  # as on an empty map
-    # a robot outside the band still has the band's cells blocked
-    south = Pose2D(0.0, -0.35, math.pi / 2)  # heading north into the band
-    outside = _batch([[0.2, 0.0, 0.0]], pose=south)
-    ctx = _ctx(pose=south, plan=plan, costmap=cm, batch=outside)
-    critic.prepare(ctx)
-    assert critic.score(outside, ctx).tolist() == [-2.0]
 
 
 def test_goal_dist_uses_last_plan_pose_on_the_map() -> None:

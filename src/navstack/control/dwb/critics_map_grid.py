@@ -163,14 +163,7 @@ class MapGridCritic(TrajectoryCritic[G]):
         return 0.0
 
     def _set_values(self, ctx: CriticContext, seed_x: IntArray, seed_y: IntArray) -> None:
-        """Run the wave from the seeds, up to the cells the cycle's trajectories touch.
-
-        "Touch" means every trajectory cell that :meth:`score` reads a value from: cells
-        below :func:`blocking_cost` -- which includes the inscribed band when the robot
-        starts the cycle inside it.  Marking only cells below INSCRIBED there let the
-        wave stop before it reached the band, so every sample (all start in the robot's
-        inscribed cell) read "unreachable area" and a robot that had grazed a door post
-        could never drive out (the office mission's failed goals, issue 21)."""
+        """Run the wave from the seeds, up to the cells the cycle's trajectories touch."""
         data = ctx.costmap.data
         self.obstacle_score = float(data.size)
         self.unreachable_score = float(data.size + 1)
@@ -179,7 +172,7 @@ class MapGridCritic(TrajectoryCritic[G]):
             mx, my, inside = self._cells(ctx.batch, ctx.costmap)
             need = np.zeros(data.shape, dtype=np.bool_)
             _mark_needed(data, mx.reshape(-1), my.reshape(-1), inside.reshape(-1),
-                         blocking_cost(ctx.costmap, ctx.pose), need)
+                         INSCRIBED_INFLATED_OBSTACLE, need)
         self.values = self._wave.compute(data, seed_x, seed_y, True, need)
 
     def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:
