@@ -121,3 +121,23 @@ def test_services() -> None:
         bus.call("/add_on", 1)
     with pytest.raises(BusError, match="already advertised"):
         bus.advertise_service("/add_one", lambda x: x)
+
+
+def _tie_trace(start: float) -> list[tuple[float, str]]:
+    s = Scheduler(start_time=start)
+    order: list[tuple[float, str]] = []
+    for name, period in (("odom", 0.02), ("scan", 0.1), ("control", 0.05)):
+        s.create_timer(period, lambda n=name: order.append((s.elapsed, n)))
+    s.run_for(30.0)
+    s.call_later(0.1, lambda: order.append((s.elapsed, "later")))
+    s.run_for(0.1)
+    return order
+
+
+@pytest.mark.parametrize("start", [1000.0, 1002.0, 1030.3, 1_767_225_600.0])
+def test_timer_ties_run_as_from_zero_at_any_start_value(start: float) -> None:
+    # a 50 Hz, a 10 Hz and a 20 Hz timer coincide every 0.1 s; as absolute float sums
+    # start + k * period they tied or not depending on the start value's rounding
+    ref = _tie_trace(0.0)
+    assert len(ref) == 1500 + 300 + 600 + 5 + 1 + 3
+    assert _tie_trace(start) == ref  # same elapsed times, same order, to the bit

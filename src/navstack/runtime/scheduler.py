@@ -4,6 +4,15 @@ In ``sim`` mode time jumps from event to event, so a simulation runs as fast as 
 allows and the same seed gives the same run; in ``wall`` mode the same loop sleeps until
 each event is due (hardware).  Events at equal times run in the order they were scheduled
 (a sequence number breaks ties), which is what makes runs bit-identical.
+
+Event times are kept as seconds *elapsed since the clock's start* (``now`` is
+``start + elapsed``), so a run's timer arithmetic -- ``first + k * period`` sums, ties
+between coinciding fires of timers of different periods, ``call_later`` and ``run_for``
+sums -- is the same float arithmetic whatever the start value: a run started at 1000 s or
+1030 s (the clock of a robot whose clock is off) orders its events exactly like the run
+started at 0.  With absolute float times the ties went to whichever sum rounded lower,
+which depends on the start value: the office mission from 1000 s and from 1002 s ran
+the controller before the 22.1 s scan in one and after it in the other, and diverged.
 """
 
 from __future__ import annotations
@@ -49,24 +58,26 @@ class EventHandle:
 
 
 class Timer:
-    """A periodic callback.  Fire ``k`` happens at ``start + k * period`` (no drift)."""
+    """A periodic callback.  Fire ``k`` happens at ``start + k * period`` (no drift), in
+    the scheduler's elapsed time (``start`` absolute, or ``start_rel`` elapsed)."""
 
     def __init__(self, scheduler: Scheduler, period: float, callback: Callable[[], Any],
-                 start: float) -> None:
+                 start: float, *, start_rel: float | None = None) -> None:
         if not period > 0.0 or not math.isfinite(period):
             raise ValueError(
                 f"timer period must be a positive finite number of seconds, got {period}")
         self.period = period
         self.callback = callback
         self._scheduler = scheduler
-        self._start = start
+        self._start = scheduler.to_elapsed(start) if start_rel is None else start_rel
         self._k = 0
-        self._handle: EventHandle | None = scheduler.call_at(start, self._fire)
+        self._handle: EventHandle | None = scheduler.call_at_elapsed(self._start, self._fire)
         self.fire_count = 0
 
     def _fire(self) -> None:
         self._k += 1
-        self._handle = self._scheduler.call_at(self._start + self._k * self.period, self._fire)
+        self._handle = self._scheduler.call_at_elapsed(self._start + self._k * self.period,
+                                                       self._fire)
         self.fire_count += 1
         self.callback()
 
@@ -129,17 +140,32 @@ class Scheduler:
         if mode == "wall":
             self._wall0 = time.monotonic()
             self._t0 = self.clock() if start_time == 0.0 else start_time
-            self._now = self._t0
         else:
-            self._now = start_time
             self._wall0 = time.monotonic()
             self._t0 = start_time
+        #: seconds since the start: the heap's keys and the timers' arithmetic
+        self._el = 0.0
+        self._now = self._t0
 
     # --- time --------------------------------------------------------------------
     @property
     def now(self) -> float:
         """Current time [s]: simulated time, or wall time in ``wall`` mode."""
         return self._now
+
+    @property
+    def elapsed(self) -> float:
+        """Seconds since the clock's start: the same float, instant by instant, whatever
+        the start value (``now`` is ``start + elapsed``)."""
+        return self._el
+
+    def to_elapsed(self, t: float) -> float:
+        """Clock time ``t`` -> seconds since the start."""
+        return t - self._t0
+
+    def _set_el(self, el: float) -> None:
+        self._el = el
+        self._now = self._t0 + el
 
     def clock(self) -> float:
         """The clock's reading right now, from any thread (wall mode: the scaled system
@@ -149,11 +175,9 @@ class Scheduler:
         rate = self.rate or 1.0
         return self.clock_offset + self.epoch + rate * (time.time() - self.epoch)
 
-    def _wall_time_for(self, t: float) -> float | None:
-        if self.mode == "wall":
-            return self._wall0 + (t - self._t0) / (self.rate or 1.0)
-        if self.rate:
-            return self._wall0 + (t - self._t0) / self.rate
+    def _wall_time_for(self, el: float) -> float | None:
+        if self.mode == "wall" or self.rate:
+            return self._wall0 + el / (self.rate or 1.0)
         return None
 
     # --- other threads -------------------------------------------------------------
@@ -176,12 +200,13 @@ class Scheduler:
         if not inbox:
             return
         if self.mode == "wall":
-            self._now = max(self._now, self.clock())
+            self._set_el(max(self._el, self.clock() - self._t0))
         while inbox:
             t, fn, args = inbox.popleft()
-            if t is not None and t < self._now - 1e-9:
+            el = self._el if t is None else t - self._t0
+            if el < self._el - 1e-9:
                 self.late_posts += 1  # lockstep: arrived after the loop passed its time
-            self.call_at(self._now if t is None else t, fn, *args)
+            self.call_at_elapsed(el, fn, *args)
 
     def _wait_for_horizon(self, limit: float) -> None:
         """Blocked by the horizon ``limit``: tell the peers, run posted work, wait to be
@@ -216,21 +241,27 @@ class Scheduler:
     # --- scheduling ------------------------------------------------------------
     def call_at(self, t: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
         """Run ``fn(*args)`` at time ``t`` (not before ``now``)."""
-        t = max(t, self._now)
-        ev = _Event(t, fn, args)
-        heapq.heappush(self._queue, (t, next(self._seq), ev))
+        return self.call_at_elapsed(t - self._t0, fn, *args)
+
+    def call_at_elapsed(self, el: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
+        """Run ``fn(*args)`` ``el`` seconds after the clock's start (not before ``now``)."""
+        el = max(el, self._el)
+        ev = _Event(self._t0 + el, fn, args)
+        heapq.heappush(self._queue, (el, next(self._seq), ev))
         return EventHandle(ev)
 
     def call_soon(self, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        return self.call_at(self._now, fn, *args)
+        return self.call_at_elapsed(self._el, fn, *args)
 
     def call_later(self, delay: float, fn: Callable[..., Any], *args: Any) -> EventHandle:
-        return self.call_at(self._now + delay, fn, *args)
+        return self.call_at_elapsed(self._el + delay, fn, *args)
 
     def create_timer(self, period: float, callback: Callable[[], Any],
                      first_at: float | None = None) -> Timer:
         """Periodic ``callback``; the first call is at ``first_at`` (default ``now + period``)."""
-        return Timer(self, period, callback, self._now + period if first_at is None else first_at)
+        if first_at is not None:
+            return Timer(self, period, callback, first_at)
+        return Timer(self, period, callback, 0.0, start_rel=self._el + period)
 
     # --- running -------------------------------------------------------------------
     def stop(self) -> None:
@@ -249,7 +280,7 @@ class Scheduler:
             if queue[0][2].cancelled:
                 heapq.heappop(queue)
                 continue
-            if queue[0][0] > limit:
+            if queue[0][0] > limit - self._t0:
                 self._wait_for_horizon(limit)
                 limit = self.horizon() if self.horizon is not None else math.inf
                 if self._inbox:
@@ -258,10 +289,11 @@ class Scheduler:
             wall = self._wall_time_for(queue[0][0])
             if wall is not None and self._sleep_until(wall):
                 continue  # posted work arrived: it may now be the earliest event
-            ev = heapq.heappop(queue)[2]
+            el, _, ev = heapq.heappop(queue)
             if wall is not None and self.lateness is not None:
                 self.lateness.append(time.monotonic() - wall)
-            self._now = max(self._now, ev.time)
+            if el > self._el:
+                self._set_el(el)
             self.events_run += 1
             ev.fn(*ev.args)
             return True
@@ -273,6 +305,10 @@ class Scheduler:
         Returns ``True`` if ``until`` became true (or ``stop()`` was called), ``False``
         if time ran out.  The clock ends at ``t_end`` when time runs out.
         """
+        return self._run_until_el(t_end - self._t0, until)
+
+    def _run_until_el(self, t_end: float, until: Callable[[], bool] | None) -> bool:
+        """:meth:`run_until` with ``t_end`` in elapsed seconds."""
         self._stopped = False
         queue = self._queue
         while True:
@@ -293,19 +329,21 @@ class Scheduler:
         if math.isfinite(t_end):
             # never past the horizon: work a peer posts for up to the horizon must not
             # find the clock already beyond its time
-            limit = t_end if self.horizon is None else min(t_end, self.horizon())
-            self._now = max(self._now, limit)
+            limit = t_end if self.horizon is None else min(t_end,
+                                                            self.horizon() - self._t0)
+            self._set_el(max(self._el, limit))
         return False
 
     def run_for(self, duration: float, until: Callable[[], bool] | None = None) -> bool:
-        return self.run_until(self._now + duration, until)
+        return self._run_until_el(self._el + duration, until)
 
     def idle_until(self, t: float) -> None:
         """Move the clock to ``t`` when no event before ``t`` is pending (a lockstep
         follower that acknowledged ``t``: its next work happens at ``t`` or later)."""
+        el = t - self._t0
         head = min((e[0] for e in self._queue if not e[2].cancelled), default=math.inf)
-        if head >= t:
-            self._now = max(self._now, t)
+        if head >= el:
+            self._set_el(max(self._el, el))
 
     def pending(self) -> int:
         return sum(1 for e in self._queue if not e[2].cancelled)

@@ -77,7 +77,8 @@ class SimulatorNode(Node):
         self._last_clock_t = -1.0
         self.map_odom_period = 0.1
         self.map_odom_tolerance = 0.1
-        self._next_map_odom_t = 0.0
+        self._next_map_odom_t = 0.0  # elapsed seconds (scheduler.elapsed)
+        self._physics_el: float | None = None
         self._last_imu_t = 0.0
         self._odom_after_imu = False
         self._odom_pose = Pose2D()
@@ -162,10 +163,18 @@ class SimulatorNode(Node):
     def advance(self) -> None:
         """Step physics up to the current time (sub-steps of at most ``physics_dt``)."""
         sim, now, dt = self.sim, self.now, self.physics_dt
-        if sim.time >= now - 1e-9:
+        # physics steps from the scheduler's elapsed time and the physics' own elapsed
+        # sum: the same floats whatever the clock's start value (``now - sim.time`` on
+        # absolute seconds gave remainders that differed in their last bits with it)
+        el = self.runtime.scheduler.elapsed
+        if self._physics_el is None:
+            self._physics_el = self.runtime.scheduler.to_elapsed(sim.time)
+        if self._physics_el >= el - 1e-9:
             return
-        while sim.time < now - 1e-9:
-            sim.step(min(dt, now - sim.time))
+        while self._physics_el < el - 1e-9:
+            step = min(dt, el - self._physics_el)
+            sim.step(step)
+            self._physics_el += step
         if now - self._last_clock_t >= self.clock_period - 1e-9:
             self._last_clock_t = now
             self.pub_clock.publish(Clock(now))
@@ -209,7 +218,8 @@ class SimulatorNode(Node):
         self._odom_pose = p.to_pose2d()
         tfs = [TransformStamped(Header(now, odom.header.frame_id), odom.child_frame_id,
                                 Transform(Vector3(p.position.x, p.position.y, 0.0), p.orientation))]
-        if self.perfect_localization and now >= self._next_map_odom_t:
+        el = self.runtime.scheduler.elapsed  # the rate on elapsed time: start-independent
+        if self.perfect_localization and el >= self._next_map_odom_t:
             # like AMCL: map->odom at a lower rate, future-dated by transform_tolerance
             # so lookups at the newest odometry time never wait for it
             transform = Transform.from_pose2d(self.sim.pose.compose(self._odom_pose.inverse()))
@@ -217,7 +227,7 @@ class SimulatorNode(Node):
                 tfs.append(TransformStamped(Header(now, "map"), odom.header.frame_id, transform))
             tfs.append(TransformStamped(Header(now + self.map_odom_tolerance, "map"),
                                         odom.header.frame_id, transform))
-            self._next_map_odom_t = now + self.map_odom_period
+            self._next_map_odom_t = el + self.map_odom_period
         self.pub_tf.publish(TFMessage(tuple(tfs)))
 
     def _imu_due(self, now: float) -> bool:
