@@ -91,3 +91,26 @@ def test_point_to_line_icp_recovers_a_small_offset(office) -> None:
     assert used > 200
     assert np.hypot(*(refined[:2] - truth[:2])) < 0.005
     assert abs(refined[2] - truth[2]) < math.radians(0.1)
+
+
+def test_link_search_widens_with_the_odometrys_learned_rotation_error(office) -> None:
+    """Turning in place where the odometry under-reads rotation by 40 %: after small turns
+    (the mapper learns how poor the odometry's rotation is) a 1 rad turn reads 0.6 rad,
+    0.4 rad (23 deg) off -- beyond the usual +-20 deg search -- and is still matched to
+    within half a degree."""
+    params = SlamParams(minimum_time_interval=0.0, minimum_travel_heading=0.1,
+                        map_start_pose=[3.0, 7.5, 0.0])
+    mapper = SlamMapper(params, LASER)
+    truth = 0.0
+    steps = [0.25] * 14 + [1.0, 1.0]
+    mapper.process_scan(_ranges(office, (3.0, 7.5, 0.0)), (0.0, 0.0, 0.0), 0.0)
+    for k, step in enumerate(steps, start=1):
+        truth += step
+        mapper.process_scan(_ranges(office, (3.0, 7.5, truth)), (0.0, 0.0, 0.6 * truth),
+                            float(k))
+    window = mapper._link_window(np.array([0.0, 0.0, 0.6]))
+    assert window is not None and window.coarse_angle_offset > 0.4
+    assert mapper._link_window(np.array([0.5, 0.0, 0.0])) is None
+    error = math.remainder(float(mapper.poses()[-1, 2]) - truth, 2 * math.pi)
+    assert abs(math.degrees(error)) < 0.5
+    assert mapper.stats.wide_recoveries == 0  # the local match found it

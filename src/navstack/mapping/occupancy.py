@@ -312,6 +312,16 @@ class LogOddsGrid:
         """``float64[H, W]`` occupancy probability ``1 / (1 + exp(-l))`` (0.5 unobserved)."""
         return 1.0 / (1.0 + np.exp(-self._l.astype(np.float64)))
 
+    def copy(self) -> LogOddsGrid:
+        """An independent copy (same parameters, cells and origin)."""
+        other = LogOddsGrid.from_params(self.params)
+        other._ax, other._ay = self._ax, self._ay
+        other._off_col, other._off_row = self._off_col, self._off_row
+        other._scans = self._scans
+        other._l = self._l.copy()
+        other._mark = self._mark.copy()
+        return other
+
     # --- integration ---------------------------------------------------------------------
     def integrate_scan(self, origin_xy: ArrayLike, endpoints_xy: ArrayLike,
                        hit_mask: ArrayLike) -> None:
@@ -328,13 +338,15 @@ class LogOddsGrid:
     def integrate_scans(self, poses: ArrayLike, scans: Sequence[LaserScan | ScanData],
                         max_usable_range: float = math.inf, *,
                         sensor_pose: ArrayLike | None = None,
-                        clear_no_returns: bool = True) -> None:
+                        clear_no_returns: bool = True, clear_only: bool = False) -> None:
         """Add a whole set of scans in one pass (rebuilding a map from a pose graph).
 
         ``poses`` (K, 3) are the scans' poses in the map frame: sensor poses, or robot
         poses when ``sensor_pose`` (the sensor's (x, y, yaw) in the robot frame) is given.
         Each scan is a :class:`LaserScan` or a :class:`ScanData`; ranges are interpreted
-        by :func:`scan_endpoints` with ``max_usable_range``.
+        by :func:`scan_endpoints` with ``max_usable_range``.  ``clear_only``: the scans
+        only add free space -- each return's beam stops 1.5 cells short of it and marks
+        nothing (what a passing person left behind is erased, no wall is eroded).
         """
         pose_arr = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         if pose_arr.shape[0] != len(scans):
@@ -357,6 +369,13 @@ class LogOddsGrid:
             ends, hits = scan_endpoints(pose_arr[k], data.ranges, data.angles, data.range_min,
                                         data.range_max, max_usable_range,
                                         clear_no_returns=clear_no_returns)
+            if clear_only and hits.any():
+                d = ends[hits] - pose_arr[k, :2]
+                length = np.hypot(d[:, 0], d[:, 1])
+                short = np.maximum(length - 1.5 * self._res, 0.0) / np.maximum(length, 1e-9)
+                ends = ends.copy()
+                ends[hits] = pose_arr[k, :2] + d * short[:, None]
+                hits = np.zeros_like(hits)
             all_ends.append(ends)
             all_hits.append(hits)
             starts[k + 1] = starts[k] + hits.size
