@@ -31,7 +31,11 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.mapping.scan_matcher import smeared_grid
+from navstack.mapping.scan_matcher import (
+    offset_moments,
+    smeared_grid,
+    surface_covariance_matrix,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -337,44 +341,22 @@ def surface_covariance(grids: PrecomputedGrids, points: FloatArray, pose: FloatA
                       s * pts[:, 0] + c * pts[:, 1] + pose[1]), axis=-1)
     rows, cols = grids.cells(world)
     half_cells = max(1, math.ceil(half / res))
-    xy, at_pose = _level_moments(grids.levels[0], rows[n], cols[n], half_cells,
-                                 drop * 255.0 * pts.shape[0])
+    drop_abs = drop * 255.0 * pts.shape[0]
+    scores = _level_scores(grids.levels[0], rows[n], cols[n], half_cells)
+    xy = offset_moments(scores, drop_abs, 1)
     sums = np.array([_sum_level(grids.levels[0], rows[a], cols[a], 0, 0)
                      for a in range(offsets.size)])
-    keep = sums >= sums.max() - drop * 255.0 * pts.shape[0]
-    w = sums[keep]
-    var_th = float((w * offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
-    cov = np.zeros((3, 3))
-    cov[:2, :2] = xy * res * res
-    cov[2, 2] = var_th
-    return cov, at_pose / (255.0 * pts.shape[0])
+    cov = surface_covariance_matrix(xy, res, sums, offsets, drop_abs)
+    return cov, float(scores[half_cells, half_cells]) / (255.0 * pts.shape[0])
 
 
 @numba.njit(cache=True)
-def _level_moments(level: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np.int32],
-                   half: int, drop: float) -> tuple[NDArray[np.float64], float]:
+def _level_scores(level: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np.int32],
+                  half: int) -> NDArray[np.float64]:
+    """Scores of the translations ``[-half, half]^2`` cells (rows: y) on ``level``."""
     size = 2 * half + 1
     scores = np.empty((size, size))
-    best = -1.0
     for i in range(size):
         for j in range(size):
-            v = _sum_level(level, rows, cols, i - half, j - half)
-            scores[i, j] = v
-            if v > best:
-                best = v
-    out = np.zeros((2, 2))
-    norm = 0.0
-    for i in range(size):
-        for j in range(size):
-            v = scores[i, j]
-            if v >= best - drop:
-                dy = i - half
-                dx = j - half
-                norm += v
-                out[0, 0] += v * dx * dx
-                out[0, 1] += v * dx * dy
-                out[1, 1] += v * dy * dy
-    if norm > 0:
-        out /= norm
-    out[1, 0] = out[0, 1]
-    return out, scores[half, half]
+            scores[i, j] = _sum_level(level, rows, cols, i - half, j - half)
+    return scores

@@ -37,7 +37,8 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 __all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan",
-           "response_covariance", "smeared_grid"]
+           "offset_moments", "response_covariance", "smeared_grid",
+           "surface_covariance_matrix"]
 
 
 @dataclass(frozen=True)
@@ -436,13 +437,8 @@ def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArra
     xy = _translation_moments(grid.fine, rows[n], cols[n], half, drop * local.shape[0],
                               2 if half > 6 else 1)
     scores = _sums_at_rows(grid.fine, rows, cols)
-    keep = scores >= scores.max() - drop * local.shape[0]
-    w = scores[keep]
-    var_th = float((w * offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
-    cov = np.zeros((3, 3))
-    cov[:2, :2] = xy * res * res
-    cov[2, 2] = var_th
-    return cov
+    return surface_covariance_matrix(xy, res, scores, np.asarray(offsets, dtype=np.float64),
+                                     drop * local.shape[0])
 
 
 @numba.njit(cache=True)
@@ -463,13 +459,27 @@ def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
     n = half // stride
     size = 2 * n + 1
     scores = np.empty((size, size))
+    for i in range(size):
+        for j in range(size):
+            scores[i, j] = _sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
+    return offset_moments(scores, drop, stride)
+
+
+@numba.njit(cache=True)
+def offset_moments(scores: NDArray[np.float64], drop: float, stride: int
+                   ) -> NDArray[np.float64]:
+    """Weighted second moments (cells^2) of the translations of a response surface:
+    ``scores`` ``(2n+1, 2n+1)`` holds the score at offset ``((i - n) * stride, (j - n) *
+    stride)`` cells (rows: y); the offsets within ``drop`` of the best count, weighted
+    by their score (Karto's ``ComputePositionalCovariance``).  Shared with the
+    branch-and-bound matcher's :func:`navstack.mapping.fast_matcher.surface_covariance`."""
+    size = scores.shape[0]
+    n = size // 2
     best = -1.0
     for i in range(size):
         for j in range(size):
-            v = _sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
-            scores[i, j] = v
-            if v > best:
-                best = v
+            if scores[i, j] > best:
+                best = scores[i, j]
     out = np.zeros((2, 2))
     norm = 0.0
     for i in range(size):
@@ -486,6 +496,21 @@ def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
         out /= norm
     out[1, 0] = out[0, 1]
     return out
+
+
+def surface_covariance_matrix(xy: FloatArray, resolution: float, angle_scores: FloatArray,
+                              angle_offsets: FloatArray, drop: float) -> FloatArray:
+    """The (x, y, theta) covariance of a response surface: the translation moments
+    ``xy`` (cells^2, :func:`offset_moments`) in metres, and the response-weighted second
+    moment of the angle offsets whose score is within ``drop`` of the best (Karto's
+    ``ComputeAngularCovariance``); no cross terms between translation and angle."""
+    keep = angle_scores >= angle_scores.max() - drop
+    w = angle_scores[keep]
+    var_th = float((w * angle_offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = xy * resolution * resolution
+    cov[2, 2] = var_th
+    return cov
 
 
 def _response_and_hessian(grid: LikelihoodGrid, local: FloatArray,
