@@ -26,7 +26,6 @@ from navstack.core.msgs import (
     Point,
     Pose,
     Pose2D,
-    TransformStamped,
 )
 from navstack.core.msgs.sensor_msgs import PointCloud2
 from navstack.core.polygon import Footprint
@@ -38,10 +37,6 @@ from navstack.costmap.static_layer import StaticLayer
 from navstack.navigation.costmap_filter_feed import CostmapFilterFeed
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
-from navstack.runtime.tf_filter import TfMessageFilter
-
-#: scans waiting for their transforms per source (Nav2's obstacle layer filter queue)
-SCAN_QUEUE = 50
 
 
 def costmap_to_grid(cm: Costmap2D, stamp: float) -> OccupancyGrid:
@@ -70,7 +65,6 @@ class CostmapNode(Node):
         self.updates = 0
         self.tf_failures = 0
         self.last_tf_error = ""
-        self._scan_filters: list[TfMessageFilter[LaserScan, TransformStamped]] = []
         try:
             self.filter_feed = CostmapFilterFeed(self)
         except ConfigError as exc:
@@ -95,15 +89,8 @@ class CostmapNode(Node):
                         self.create_subscription(topic, PointCloud2,
                                                  partial(self._on_cloud, layer, src), SENSOR_DATA)
                         continue
-                    # Nav2's obstacle layer puts a tf2 MessageFilter in front of every
-                    # source: a scan waits (tf_filter_tolerance) for the odometry of its own
-                    # instant, which the simulator may publish just after it
-                    scans: TfMessageFilter[LaserScan, TransformStamped] = TfMessageFilter(
-                        self, self._scan_transform, partial(self._on_scan_placed, layer, src),
-                        queue_size=SCAN_QUEUE, timeout=layer.params.tf_filter_tolerance,
-                        what=f"scan on {topic}", on_drop=self._on_scan_dropped)
-                    self._scan_filters.append(scans)
-                    self.create_subscription(topic, LaserScan, scans.add, SENSOR_DATA)
+                    self.create_subscription(topic, LaserScan,
+                                             partial(self._on_scan, layer, src), SENSOR_DATA)
         self.filter_feed.configure()
         self.pub = self.create_publisher(f"/{self.name}/costmap", OccupancyGrid, QoS(depth=1))
         self.bus.advertise_service(f"/{self.name}/clear_entirely_{self.name}",
@@ -115,9 +102,6 @@ class CostmapNode(Node):
             self.create_timer(self.publish_period, self.publish)
 
     def on_cleanup(self) -> None:
-        for scans in self._scan_filters:
-            scans.clear()
-        self._scan_filters.clear()
         self.bus.remove_service(f"/{self.name}/clear_entirely_{self.name}")
         self.bus.remove_service(f"/{self.name}/clear_around_{self.name}")
 
@@ -150,15 +134,12 @@ class CostmapNode(Node):
         cm = self.costmap
         return (cm.origin_x, cm.origin_y, cm.origin_x + cm.size_x_m, cm.origin_y + cm.size_y_m)
 
-    def _scan_transform(self, scan: LaserScan) -> TransformStamped:
-        return self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
-
-    def _on_scan_dropped(self, scan: LaserScan, reason: str) -> None:
-        self.tf_failures += 1
-        self.last_tf_error = reason
-
-    def _on_scan_placed(self, layer: ObstacleLayer, source: str, scan: LaserScan,
-                        tfs: TransformStamped) -> None:
+    def _on_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan) -> None:
+        try:
+            tfs = self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
+        except TransformError as exc:
+            self.tf_failed(exc)
+            return
         t = tfs.transform
         layer.add_scan(scan, Pose2D(t.translation.x, t.translation.y, t.rotation.yaw),
                        t.translation.z, source)
