@@ -254,7 +254,8 @@ def test_planner_layer_and_dwb_critic_from_nav2_yaml(my_pkg: SimpleNamespace,
     stack = NavStack(str(world), nav2_params=nav2, seed=0).start()
     planner = stack.planner.planners["GridBased"]
     layer = stack.global_costmap.layered.layer("keep_off")
-    dwb = stack.controller.controllers["FollowPath"]
+    shim = stack.controller.controllers["FollowPath"]  # the diff-drive default wraps DWB
+    dwb = getattr(shim, "primary", shim)
     critic = next(c for c in dwb.critics if c.name == "SpeedCap")
     # built from the YAML by type string, with the YAML's parameters
     assert isinstance(planner, my_pkg.ViaPointPlanner)
@@ -303,7 +304,8 @@ def test_mppi_critic_from_nav2_yaml(my_pkg: SimpleNamespace, tmp_path: Path) -> 
 
     nav2, world = _files(tmp_path, OVERLAY, MPPI_OVERLAY, base=nav2_params_for("mppi"))
     stack = NavStack(str(world), nav2_params=nav2, seed=0).start()
-    mppi = stack.controller.controllers["FollowPath"]
+    shim = stack.controller.controllers["FollowPath"]  # the diff-drive default wraps MPPI
+    mppi = getattr(shim, "primary", shim)
     critic = mppi.optimizer.critics[-1]
     assert isinstance(critic, my_pkg.MPPISpeedCapCritic)
     assert (critic.name, critic.params.max_speed, critic.params.cost_weight) == (

@@ -21,6 +21,7 @@ from navstack.control.dwb.critics import (
     TwirlingCritic,
 )
 from navstack.control.dwb.trajectory_generator import LimitedAccelGenerator
+from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D, Twist2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
 
@@ -142,6 +143,22 @@ def test_base_obstacle_scores_last_or_sum_and_rejects() -> None:
     assert last.score(batch, _ctx(costmap=cm)).tolist() == [-3.0]  # unknown space
     off = _batch([[0.26, 0.0, 0.0]], pose=Pose2D(2.4, 0.0, 0.0))
     assert last.score(off, _ctx(costmap=cm)).tolist() == [-1.0]  # off grid
+
+
+def test_base_obstacle_max_cost_keeps_a_clearance_band() -> None:
+    cm = empty_costmap()
+    cm.data[50, 53] = 220  # x in [0.15, 0.2): inflated, below inscribed
+    batch = _batch([[0.125, 0.0, 0.0]])
+    nav2 = _make(BaseObstacleCritic)
+    band = _make(BaseObstacleCritic, max_cost=200)
+    assert isinstance(nav2, BaseObstacleCritic) and isinstance(band, BaseObstacleCritic)
+    assert nav2.score(batch, _ctx(costmap=cm)).tolist() == [0.0]  # Nav2: only >= 253
+    assert band.score(batch, _ctx(costmap=cm)).tolist() == [-2.0]  # above max_cost
+    # starting inside the band the robot may drive out through it (lethal still rejects)
+    cm.data[50, 50:53] = 220
+    assert band.score(batch, _ctx(costmap=cm)).tolist() == [0.0]
+    with pytest.raises(ConfigError, match="max_cost"):
+        BaseObstacleCritic.make_params({"max_cost": 300})
 
 
 def test_path_dist_scores_end_distance_and_rejects_unreachable() -> None:

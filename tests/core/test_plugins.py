@@ -57,7 +57,10 @@ def test_every_builtin_controller_is_complete_and_takes_a_speed_limit() -> None:
     for name in CONTROLLERS.names():
         cls = CONTROLLERS.get(name)
         assert not cls.__abstractmethods__, f"{name} leaves {cls.__abstractmethods__} abstract"
-        controller = cls(cls.params_model())
+        # a wrapper (the rotation shim) needs the controller it wraps, as in Nav2
+        wraps = ({"primary_controller": "dwb_core::DWBLocalPlanner"}
+                 if "primary_controller" in cls.params_model.model_fields else {})
+        controller = cls(cls.params_model.from_mapping(wraps))
         controller.set_speed_limit(50.0, True)
         controller.set_speed_limit(0.2, False)
         controller.set_speed_limit(0.0, True)
@@ -108,7 +111,8 @@ def test_server_plugin_errors_name_the_file_and_key() -> None:
         "nav2.yaml: controller_server.FollowPath.plugin: unknown controller plugin "
         "'teb_local_planner::TebLocalPlannerROS' (known: dwb_core::DWBLocalPlanner, "
         "nav2_mppi_controller::MPPIController, nav2_regulated_pure_pursuit_controller::"
-        "RegulatedPurePursuitController; a plugin of your own: import its module first or "
+        "RegulatedPurePursuitController, nav2_rotation_shim_controller::"
+        "RotationShimController; a plugin of your own: import its module first or "
         "write 'package.module:ClassName')")
     with pytest.raises(ConfigError) as err:
         load_plugin(PLANNERS, "navstack.core.msgs:Path", file="nav2.yaml",

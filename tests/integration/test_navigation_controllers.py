@@ -46,12 +46,17 @@ def test_controller_files_build_the_named_plugin(name: str, cls_name: str) -> No
         assert params is None  # the packaged file as is
     else:
         server = ros_parameters(params or {}, "controller_server")
-        assert server["FollowPath"]["plugin"] == CONTROLLERS[name]
+        # the diff-drive default: Nav2's rotation shim around the named controller
+        assert server["FollowPath"]["plugin"] == (
+            "nav2_rotation_shim_controller::RotationShimController")
+        assert server["FollowPath"]["primary_controller"] == CONTROLLERS[name]
         # the rest of the packaged controller_server section is kept
         assert server["general_goal_checker"]["xy_goal_tolerance"] == 0.25
         assert server["controller_frequency"] == 20.0
     stack = NavStack("office", seed=0, nav2_params=params).start()
-    assert type(stack.controller.controllers["FollowPath"]).__name__ == cls_name
+    shim = stack.controller.controllers["FollowPath"]
+    assert type(shim).__name__ == "RotationShimController"
+    assert type(getattr(shim, "primary", None)).__name__ == cls_name
 
 
 def test_mppi_file_uses_the_robot_limits_and_nav2_shifting() -> None:
@@ -60,6 +65,10 @@ def test_mppi_file_uses_the_robot_limits_and_nav2_shifting() -> None:
     section = dict(ros_parameters(nav2_params_for("mppi") or {}, "controller_server")
                    ["FollowPath"])
     section.pop("plugin")
+    assert section.pop("primary_controller") == "nav2_mppi_controller::MPPIController"
+    for key in ("angular_dist_threshold", "forward_sampling_distance",  # the shim's
+                "rotate_to_heading_angular_vel", "max_angular_accel", "simulate_ahead_time"):
+        section.pop(key)
     p = MPPIParams.from_mapping(section)
     # diff_drive profile: 0.5 m/s, -0.3 m/s reverse, 1.5 rad/s, 1.0 m/s^2, 2.0 rad/s^2
     assert (p.vx_max, p.vx_min, p.wz_max) == (0.5, -0.3, 1.5)

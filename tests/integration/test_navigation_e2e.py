@@ -44,6 +44,10 @@ def test_goal_in_map_moves_robot_toward_it_and_reaches_it() -> None:
 
 
 def test_new_obstacle_raises_local_cost_and_is_avoided() -> None:
+    """A box that is not on the map is marked in the local costmap while the robot is
+    still well ahead of it, and the robot drives around it.  Asserted on the outcome over
+    the whole run, sampled every spin -- not at one instant, whose timing depends on the
+    controller's and the collision monitor's speed choices."""
     world = load_world("office")
     occ = world.occupied.copy()
     # a 0.3 m box in the corridor 2 m ahead of the spawn, not on the map
@@ -54,22 +58,38 @@ def test_new_obstacle_raises_local_cost_and_is_avoided() -> None:
     sim_world = replace(world, occupied=occ)
     stack = NavStack(sim_world, seed=0, map_grid=world.to_occupancy_grid())
     nav = Navigator(stack)
-    box_xy = (sx + 2.0, sy)
+    box_x0, box_x1 = world.origin_x + c0 * world.resolution, world.origin_x + (c0 + 6) * 0.05
+    box_y0, box_y1 = world.origin_y + r0 * world.resolution, world.origin_y + (r0 + 6) * 0.05
     assert nav.goToPose(_goal(sx + 4.5, sy))
-    while math.hypot(nav.robot_pose().x - box_xy[0], nav.robot_pose().y - box_xy[1]) > 1.2:
-        stack.run_for(0.2)
-        assert stack.now < 30.0
-    stack.run_for(0.3)  # one more local costmap update
-    local = stack.local_costmap.costmap  # in odom: bring the box there
-    box_odom = stack.runtime.tf.lookup_pose2d("odom", "map").compose(Pose2D(*box_xy, 0.0))
-    cell = local.world_to_map(box_odom.x, box_odom.y)
-    assert cell is not None
-    mx, my = cell
-    assert local.data[my - 3:my + 4, mx - 3:mx + 4].max() == LETHAL_OBSTACLE  # box marked
-    assert local.data[my, mx] >= INSCRIBED_INFLATED_OBSTACLE
-    _run(nav, 90.0)
+    marked_at: float | None = None  # distance to the box face when first marked lethal
+    clearance = math.inf  # body (0.22 m disc) to the box, every spin
+    t0 = stack.now
+    while not nav.isTaskComplete():
+        assert stack.now - t0 < 90.0, "task did not end in time"
+        p = nav.robot_pose()
+        if marked_at is None:
+            local = stack.local_costmap.costmap  # in odom: bring the box there
+            to_odom = stack.runtime.tf.lookup_pose2d("odom", "map")
+            corners = [to_odom.compose(Pose2D(x, y, 0.0)) for x in (box_x0, box_x1 - 0.01)
+                       for y in (box_y0, box_y1 - 0.01)]
+            cells = [local.world_to_map(c.x, c.y) for c in corners]
+            if all(c is not None for c in cells):
+                xs = [c[0] for c in cells if c is not None]
+                ys = [c[1] for c in cells if c is not None]
+                block = local.data[min(ys):max(ys) + 1, min(xs):max(xs) + 1]
+                if block.max() == LETHAL_OBSTACLE:
+                    assert block.min() >= INSCRIBED_INFLATED_OBSTACLE  # the box is inflated
+                    marked_at = box_x0 - p.x
+        dx = max(box_x0 - p.x, 0.0, p.x - box_x1)
+        dy = max(box_y0 - p.y, 0.0, p.y - box_y1)
+        clearance = min(clearance, math.hypot(dx, dy) - 0.22)
     assert nav.getResult() is TaskResult.SUCCEEDED
     assert stack.sim.sim.collisions == 0
+    # seen from at least 1 m away (the lidar marks up to 2.5 m; the costmap runs at 10 Hz)
+    assert marked_at is not None and marked_at >= 1.0
+    # driven around it, never touching (the collision count) with a margin the padded
+    # footprint and the inflation keep (measured 0.065 m, marked 1.18 m ahead; 5 cm cells)
+    assert clearance >= 0.03, clearance
 
 
 def test_blocked_corridor_recovers_and_succeeds_or_fails_with_reason() -> None:

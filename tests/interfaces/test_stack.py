@@ -19,7 +19,8 @@ from navstack.mapping.slam_params import SlamParams
 from navstack.navigation.behavior_server import BehaviorServerParams
 
 SERVERS = ["global_costmap", "local_costmap", "planner_server", "controller_server",
-           "behavior_server", "collision_monitor", "bt_navigator", "waypoint_follower"]
+           "behavior_server", "velocity_smoother", "collision_monitor", "twist_mux",
+           "bt_navigator", "waypoint_follower"]
 SPAWN = Pose2D(2.0, 7.5, 0.3)
 
 

@@ -114,3 +114,26 @@ def test_link_search_widens_with_the_odometrys_learned_rotation_error(office) ->
     error = math.remainder(float(mapper.poses()[-1, 2]) - truth, 2 * math.pi)
     assert abs(math.degrees(error)) < 0.5
     assert mapper.stats.wide_recoveries == 0  # the local match found it
+
+
+def test_incremental_map_equals_a_rebuild_from_every_node(office) -> None:
+    """build_map reuses its last grid while the nodes it holds keep their poses: the map
+    after each new node is cell for cell the one rebuilt from every node, and a node
+    moved by the graph (here: by hand) makes it rebuild."""
+    mapper = SlamMapper(SlamParams(minimum_time_interval=0.0, map_start_pose=[1.0, 7.5, 0.0]),
+                        LASER)
+    for k in range(24):
+        x = 1.0 + 0.25 * k
+        mapper.process_scan(_ranges(office, (x, 7.5, 0.0)), (0.25 * k, 0.0, 0.0), float(k))
+        a = mapper.build_map().to_occupancy_grid(crop=True)
+        b = mapper.build_map(incremental=False).to_occupancy_grid(crop=True)
+        assert (a.info.width, a.info.height) == (b.info.width, b.info.height)
+        assert a.info.origin.position.x == b.info.origin.position.x
+        assert np.array_equal(np.asarray(a.data), np.asarray(b.data))
+    incremental, rebuilt = mapper.map_builds
+    assert incremental >= 20 and rebuilt >= 1
+    cache = mapper._map_cache
+    assert cache is not None
+    cache.poses[0, 0] -= 0.01  # as if the graph had moved the first node since
+    mapper.build_map()
+    assert mapper.map_builds == [incremental, rebuilt + 1]

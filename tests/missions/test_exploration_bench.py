@@ -8,8 +8,9 @@ import math
 import pytest
 
 from navstack.benchmarks.common import BenchResult
-from navstack.benchmarks.exploration import reference, summarize
+from navstack.benchmarks.exploration import reference, run, summarize
 from navstack.benchmarks.runner import available_suites
+from navstack.core.errors import ConfigError
 
 
 def _case(world: str, strategy: str, seed: int, t90: float, ok: bool = True) -> dict:
@@ -50,3 +51,8 @@ def test_budgets_per_strategy_per_world_and_the_better_strategy() -> None:
     assert "information_gain median time to 90 % 25 s is not below explore_lite's 18 s" in notes
     assert "run arena explore_lite seed 1: FAILED" in notes and notes.count(": lost") == 1
     assert math.isfinite(res.metrics["slam_map_latency_p95_s"])
+
+
+def test_workers_must_be_positive() -> None:
+    with pytest.raises(ConfigError, match="--workers must be at least 1, got 0"):
+        run(False, None, worlds=["arena"], workers=0)

@@ -66,9 +66,28 @@ waypoint_follower:
 map_saver:
   ros__parameters: {save_map_timeout: 5.0}
 velocity_smoother:
-  ros__parameters: {smoothing_frequency: 20.0}
+  ros__parameters:
+    smoothing_frequency: 20.0
+    max_velocity: [0.5, 0.0, 2.0]
+    min_velocity: [-0.5, 0.0, -2.0]
+    odom_topic: "odom"
 collision_monitor:
-  ros__parameters: {base_frame_id: base_footprint}
+  ros__parameters:
+    base_frame_id: "base_footprint"
+    odom_frame_id: "odom"
+    cmd_vel_in_topic: "cmd_vel_smoothed"
+    cmd_vel_out_topic: "cmd_vel"
+    state_topic: "collision_monitor_state"
+    polygons: ["FootprintApproach"]
+    FootprintApproach:
+      type: "polygon"
+      action_type: "approach"
+      footprint_topic: "/local_costmap/published_footprint"
+      time_before_collision: 1.2
+      simulation_time_step: 0.1
+      min_points: 6
+    observation_sources: ["scan"]
+    scan: {type: "scan", topic: "scan", min_height: 0.15, max_height: 2.0}
 docking_server:
   ros__parameters: {controller_frequency: 50.0}
 robot_state_publisher:
@@ -86,15 +105,16 @@ def test_a_bringup_style_file_loads_with_notes(tmp_path: Path,
         nav = load_nav2_params(path)
     assert nav.file == str(path)
     assert nav.from_file == ("bt_navigator", "controller_server", "local_costmap",
-                             "behavior_server", "waypoint_follower")
-    assert set(nav.from_defaults) == {"planner_server", "global_costmap", "amcl"}
+                             "behavior_server", "waypoint_follower", "velocity_smoother",
+                             "collision_monitor")
+    assert set(nav.from_defaults) == {"planner_server", "global_costmap", "amcl",
+                                      "twist_mux"}
     assert nav.notes == [
         f"{path}: sections from the file: bt_navigator, controller_server, local_costmap, "
-        "behavior_server, waypoint_follower; from the packaged defaults (nav2_params.yaml): "
-        + ", ".join(nav.from_defaults),
+        "behavior_server, waypoint_follower, velocity_smoother, collision_monitor; from the "
+        "packaged defaults (nav2_params.yaml): " + ", ".join(nav.from_defaults),
         f"{path}: sections of nodes navstack does not run, ignored: map_saver, "
-        "velocity_smoother, collision_monitor, docking_server, robot_state_publisher, "
-        "lifecycle_manager_navigation",
+        "docking_server, robot_state_publisher, lifecycle_manager_navigation",
         f"{path}: Nav2 parameters navstack does not use, ignored: bt_navigator.odom_topic, "
         "bt_navigator.plugin_lib_names, "
         "bt_navigator.navigate_to_pose, bt_navigator.navigate_through_poses, "
@@ -128,6 +148,14 @@ def test_the_stack_runs_on_a_bringup_style_file(tmp_path: Path) -> None:
     stack = NavStack("office", nav2_params=path).start()
     assert stack.controller.params.controller_frequency == 20.0
     assert stack.behaviors.params.cycle_frequency == 10.0
+    # the file's command chain runs: its smoother limits, its monitor (Nav2's relative
+    # topics, base_footprint) in front of the packaged twist_mux
+    assert stack.velocity_smoother.params.max_velocity == (0.5, 0.0, 2.0)
+    monitor = stack.collision_monitor.params
+    assert monitor.cmd_vel_out_topic == "/nav_vel"  # Nav2's "cmd_vel", remapped to the mux
+    assert monitor.polygon_params["FootprintApproach"].min_points == 6
+    stack.run_for(1.0)
+    assert stack.collision_monitor.monitor_state()["action"] == "do_nothing"
 
 
 def test_the_packaged_file_needs_no_notes() -> None:
@@ -160,6 +188,61 @@ def test_every_mistake_of_a_file_is_reported_at_once() -> None:
         "f.yaml: bt_navigator: missing 'ros__parameters' (did you mean 'ros__parameters'?)"]
     with pytest.raises(ConfigError, match=r"f\.yaml: global_costmap: must be a mapping"):
         check_nav2_data({"global_costmap": 3}, "f.yaml")
+
+
+def test_command_chain_sections_are_checked_whole() -> None:
+    """velocity_smoother, collision_monitor and twist_mux are read, not ignored: their
+    values, polygon/source sections and mux entries are checked with the file's keys."""
+    square = [[0.3, 0.3], [0.3, -0.3], [-0.3, -0.3], [-0.3, 0.3]]
+    with pytest.raises(ConfigErrors) as info:
+        check_nav2_data({
+            "velocity_smoother": {"ros__parameters": {"smoothing_frequency": -1.0,
+                                                      "feedback": "OPEN"}},
+            "collision_monitor": {"ros__parameters": {
+                "polygons": ["Stop", "Slow"], "observation_sources": ["scan"],
+                "Stop": {"type": "polygon", "action_type": "stop", "points": square,
+                         "slowdown_ration": 0.3},
+                "scan": {"type": "scan", "topic": "scan"}}},
+            "twist_mux": {"ros__parameters": {
+                "topics": {"navigation": {"topic": "nav_vel", "timeout": 0.5,
+                                          "priorty": 10}},
+                "locks": {"e_stop": {"topic": "e_stop", "timeout": 0.0, "priority": 300}}}},
+        }, "f.yaml")
+    assert str(info.value).splitlines() == [
+        "f.yaml: velocity_smoother.ros__parameters.smoothing_frequency: Input should be "
+        "greater than 0 (got -1.0)",
+        "f.yaml: velocity_smoother.ros__parameters.feedback: Input should be 'OPEN_LOOP' or "
+        "'CLOSED_LOOP' (got 'OPEN')",
+        "f.yaml: collision_monitor.ros__parameters.Slow: polygon 'Slow' has no section "
+        "(add 'Slow: {type: ...}' beside the list)",
+        "f.yaml: twist_mux.ros__parameters.topics.navigation.priority: required key is "
+        "missing",
+        "f.yaml: twist_mux.ros__parameters.topics.navigation.priorty: unknown key",
+        "f.yaml: twist_mux.ros__parameters.locks.e_stop.priority: Input should be less than "
+        "or equal to 255 (got 300)"]
+    with pytest.raises(ConfigError, match=r"^f\.yaml: collision_monitor\.ros__parameters\."
+                                          r"Stop\.slowdown_ration: unknown key \(did you "
+                                          r"mean 'slowdown_ratio'\?\)$"):
+        check_nav2_data({"collision_monitor": {"ros__parameters": {
+            "polygons": ["Stop"], "observation_sources": [],
+            "Stop": {"type": "polygon", "action_type": "stop", "points": square,
+                     "slowdown_ration": 0.3}}}}, "f.yaml")
+    with pytest.raises(ConfigError, match=r"^f\.yaml: twist_mux\.ros__parameters\.topic: "
+                                          r"unknown twist_mux parameter \(did you mean "
+                                          r"'topics'\?\)$"):
+        check_nav2_data({"twist_mux": {"ros__parameters": {"topic": {}}}}, "f.yaml")
+    with pytest.raises(ConfigErrors, match=r"collision_monitor\.ros__parameters\."
+                                           r"observation_sources: collision_monitor needs "
+                                           r"'observation_sources' \(Nav2 requires it\)"):
+        check_nav2_data({"collision_monitor": {"ros__parameters": {"stop_pub_timeout": 1.0}}},
+                        "f.yaml")
+    # a valid section in the ROS 2 layout passes and is kept as it is
+    nav = check_nav2_data({"twist_mux": {"ros__parameters": {
+        "topics": {"navigation": {"topic": "cmd_vel_nav", "timeout": 0.5, "priority": 50}},
+        "locks": {"e_stop_lock": {"topic": "e_stop", "timeout": 0.0, "priority": 255}}}}},
+        "f.yaml")
+    assert nav.data["twist_mux"]["ros__parameters"]["locks"] == {
+        "e_stop_lock": {"topic": "e_stop", "timeout": 0.0, "priority": 255}}
 
 
 def test_mission_sections_load_without_a_note() -> None:

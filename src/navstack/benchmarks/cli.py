@@ -35,7 +35,7 @@ def bench(
                            "local (processes) or ray.")] = None,
     workers: Annotated[int | None, typer.Option(
         "--workers", help="Parallel workers for --executor local/ray (default: one per "
-                          "CPU).")] = None,
+                          "CPU); exploration: cases run at a time (default 1).")] = None,
     address: Annotated[str | None, typer.Option(
         "--address", help="Running Ray cluster to use (e.g. auto or ray://host:10001); "
                           "default: start a local one.")] = None,

@@ -20,7 +20,7 @@ Budgets (issue 16): success in >= 14 of 15 runs per strategy; median time to 90 
 the reference on every world; the information-gain strategy's median time to 90 % below
 explore_lite's on every world; SLAM map update latency p95 <= 1 s and goal-to-first-motion
 p95 <= 0.4 s (the TurtleBot course's figures).  ``--quick``: the arena, one seed, both
-strategies (the CI subset).
+strategies (the CI subset); ``--workers N``: N cases at a time, in processes.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from navstack.benchmarks.common import BenchResult
+from navstack.core.errors import ConfigError
 
 WORLDS = ("office", "warehouse", "arena")
 STRATEGIES = ("explore_lite", "information_gain")
@@ -197,16 +198,47 @@ def _budgets(cases: list[dict[str, Any]], worlds: list[str], strategies: list[st
 
 def run(quick: bool, data_dir: Path | None, worlds: Sequence[str] | None = None,
         seeds: Sequence[int] | None = None, strategies: Sequence[str] | None = None,
-        localization: str | None = None) -> BenchResult:
+        localization: str | None = None, workers: int | None = None) -> BenchResult:
     """The suite (module docstring); ``worlds``/``seeds``/``strategies`` select a part,
-    ``localization="perfect"`` explores with given poses instead of SLAM."""
+    ``localization="perfect"`` explores with given poses instead of SLAM.
+
+    ``workers`` > 1 (``navstack bench exploration --workers N``) runs the cases and the
+    references in that many processes, longest worlds first; every case is seeded and
+    on simulated time, so its figures do not depend on where or beside what it runs
+    (only the wall-clock ones do)."""
     result = BenchResult("exploration", show_cases=True)
     worlds = list(worlds or (("arena",) if quick else WORLDS))
     seeds = list(seeds or ((1,) if quick else SEEDS))
     strategies = list(strategies or STRATEGIES)
-    refs = {w: reference(w) for w in worlds}
-    cases = [run_case(w, s, seed, localization) for w in worlds for seed in seeds
-             for s in strategies]
+    jobs = [(w, s, seed) for w in worlds for seed in seeds for s in strategies]
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}",
+                          key_path="workers", suggestion="omit it to run the cases one by one")
+    if not workers or workers == 1:
+        refs = {w: reference(w) for w in worlds}
+        cases = [run_case(w, s, seed, localization) for w, s, seed in jobs]
+    else:
+        refs, cases = _run_parallel(worlds, jobs, localization, workers)
     result.cases = cases
     summarize(cases, refs, result)
     return result
+
+
+def _run_parallel(worlds: list[str], jobs: list[tuple[str, str, int]],
+                  localization: str | None, workers: int
+                  ) -> tuple[dict[str, dict[str, float]], list[dict[str, Any]]]:
+    """References and cases in a process pool; cases come back in ``jobs`` order."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    def size(world: str) -> float:  # longest first: the pool ends with short cases
+        return MAX_DURATION.get(world, 3600.0)
+
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        ref_futures = {w: pool.submit(reference, w) for w in sorted(worlds, key=size,
+                                                                     reverse=True)}
+        order = sorted(range(len(jobs)), key=lambda k: -size(jobs[k][0]))
+        case_futures = {k: pool.submit(run_case, *jobs[k], localization) for k in order}
+        refs = {w: f.result() for w, f in ref_futures.items()}
+        cases = [case_futures[k].result() for k in range(len(jobs))]
+    return refs, cases

@@ -18,10 +18,11 @@ from typing import Any
 import httpx
 
 from navstack.benchmarks.cdp import Browser
-from navstack.core.msgs import Bool
+from navstack.core.msgs import Bool, Joy
 from navstack.interfaces.estop import LOCK_TOPIC
 from navstack.interfaces.telegram.fake_api import FakeBotApi
 from navstack.interfaces.web import DashboardHandle
+from navstack.nodes.teleop import TeleopNode, TeleopNodeParams
 
 OPERATOR_CHAT, OTHER_CHAT, STRANGER_CHAT = 1001, 1002, 6666
 
@@ -198,18 +199,6 @@ def lock_topic(c: Clients) -> Source:
 def joystick(c: Clients) -> Source:
     """The rover's joystick node (``TeleopNode``) in autonomy mode on ``/joy``: its e-stop
     button latches as authority ``joystick``; enable + release buttons release."""
-    try:
-        from navstack.core.msgs import Joy  # type: ignore[attr-defined, unused-ignore]
-        from navstack.nodes.teleop import (  # type: ignore[import-not-found, unused-ignore]
-            TeleopNode,
-            TeleopNodeParams,
-        )
-    except ImportError:
-        none = lambda: Outcome(False)  # noqa: E731
-        return Source("joystick button", none, none, none,
-                      skip="needs the teleop node (navstack.nodes.teleop, branch "
-                           "i18-command); measured once the branches are merged")
-
     runner = c.handle.runner
     gate = runner.estop
     params = TeleopNodeParams.from_mapping({"start_mode": "auto"}, key_path="teleop")

@@ -7,10 +7,13 @@ stack, so the executors only differ in where :func:`run_scenario` runs:
 * ``local`` -- a :class:`concurrent.futures.ProcessPoolExecutor` of ``workers``
   processes (``spawn``: each worker imports navstack afresh, as a Ray worker does);
 * ``ray`` -- one Ray task per scenario (``num_cpus=1`` each).  Without ``address`` a
-  local Ray cluster of ``workers`` CPUs is started for the run and shut down after it;
-  with ``address`` (``ray://host:10001`` or ``host:6379``, or ``auto``) the tasks go to
-  that running cluster and ``workers`` is not used.  Ray is the optional extra
-  ``navstack[sweeps]``.
+  local Ray cluster of ``workers`` CPUs is started for the run and shut down after it
+  (its workers are forked from this process's environment, so no ``runtime_env`` is
+  set: one would make Ray replace the workers it prestarts at ``ray.init`` with new
+  ones); with ``address`` (``ray://host:10001`` or ``host:6379``, or ``auto``) the tasks
+  go to that running cluster, carrying ``NUMBA_CACHE_DIR``/``MPLBACKEND``/
+  ``NAVSTACK_DATA`` in a ``runtime_env``, and ``workers`` is not used.  Ray is the
+  optional extra ``navstack[sweeps]``.
 
 Results come back in scenario order whatever the completion order, and progress is
 reported per finished scenario.  Because a scenario's outcome depends on nothing but
@@ -74,9 +77,14 @@ def check_executor(executor: str, workers: int | None, address: str | None) -> N
 
 
 def run_jobs(jobs: Sequence[Job], executor: str = "serial", workers: int | None = None,
-             address: str | None = None, progress: Progress = no_progress
-             ) -> list[Outcome]:
-    """Outcomes of ``jobs`` in order, run by ``executor`` (see the module docstring)."""
+             address: str | None = None, progress: Progress = no_progress,
+             timings: dict[str, float] | None = None) -> list[Outcome]:
+    """Outcomes of ``jobs`` in order, run by ``executor`` (see the module docstring).
+
+    ``timings``, if given, receives ``cluster_start_s``: the wall time [s] of bringing
+    the Ray cluster up or connecting to it (0 for the other executors)."""
+    if timings is not None:
+        timings["cluster_start_s"] = 0.0
     check_executor(executor, workers, address)
     progress("scenarios", 0, len(jobs))
     if executor == "serial" or not jobs:
@@ -88,7 +96,7 @@ def run_jobs(jobs: Sequence[Job], executor: str = "serial", workers: int | None 
     n = workers or default_workers()
     if executor == "local":
         return _run_local(jobs, n, progress)
-    return _run_ray(jobs, n, address, progress)
+    return _run_ray(jobs, n, address, progress, timings)
 
 
 def _run_local(jobs: Sequence[Job], workers: int, progress: Progress) -> list[Outcome]:
@@ -131,13 +139,19 @@ def check_reachable(address: str, timeout_s: float = 5.0) -> None:
                          "for a local cluster") from None
 
 
-def _start_local_ray(ray: Any, workers: int, env: dict[str, Any], attempts: int = 2) -> None:
+def _start_local_ray(ray: Any, workers: int, attempts: int = 2) -> None:
     """``ray.init`` of a local cluster; Ray gives its raylet a fixed 30 s to register,
-    which a heavily loaded machine can miss, so a failed start is retried once."""
+    which a heavily loaded machine can miss, so a failed start is retried once.
+
+    No ``runtime_env``: the raylet and its workers inherit this process's environment
+    (``NUMBA_CACHE_DIR`` included), and a job with a runtime environment cannot use the
+    ``workers`` processes Ray prestarts during ``ray.init`` -- it would start two more
+    and pay their start-up (seconds on a loaded 2-core machine) before the first task.
+    """
     for attempt in range(attempts):
         try:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                     configure_logging=False, runtime_env=env)
+                     configure_logging=False)
             return
         except Exception:
             ray.shutdown()
@@ -146,7 +160,8 @@ def _start_local_ray(ray: Any, workers: int, env: dict[str, Any], attempts: int 
 
 
 def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
-             progress: Progress) -> list[Outcome]:
+             progress: Progress, timings: dict[str, float] | None = None) -> list[Outcome]:
+    t0 = time.perf_counter()
     ray = _import_ray()
     if address is not None:
         check_reachable(address)
@@ -156,7 +171,7 @@ def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
                             if k in ("NUMBA_CACHE_DIR", "MPLBACKEND", "NAVSTACK_DATA")}}
         try:
             if address is None:
-                _start_local_ray(ray, workers, env)
+                _start_local_ray(ray, workers)
             else:
                 ray.init(address=address, log_to_driver=False, configure_logging=False,
                          runtime_env=env)
@@ -167,6 +182,8 @@ def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
                              "machine Ray's start-up can time out: retry, or use "
                              "--executor local)") from None
         started = True
+    if timings is not None:
+        timings["cluster_start_s"] = time.perf_counter() - t0
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_run_job)
         refs = [task.remote(job) for job in jobs]
@@ -189,9 +206,9 @@ def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
 
 
 def timed_jobs(jobs: Sequence[Job], executor: str, workers: int | None = None,
-               address: str | None = None, progress: Progress = no_progress
-               ) -> tuple[list[Outcome], float]:
-    """:func:`run_jobs` and its wall time [s] (cluster start-up included)."""
+               address: str | None = None, progress: Progress = no_progress,
+               timings: dict[str, float] | None = None) -> tuple[list[Outcome], float]:
+    """:func:`run_jobs` and its wall time [s] (cluster start-up and shut-down included)."""
     t0 = time.perf_counter()
-    out = run_jobs(jobs, executor, workers, address, progress)
+    out = run_jobs(jobs, executor, workers, address, progress, timings)
     return out, time.perf_counter() - t0

@@ -51,6 +51,8 @@ CONTROLLERS: ClassRegistry[Controller] = ClassRegistry(
         "navstack.control.rpp.controller": (
             "RegulatedPurePursuit",
             "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"),
+        "navstack.control.rotation_shim": (
+            "RotationShimController", "nav2_rotation_shim_controller::RotationShimController"),
     }))
 """Local controllers (``controller_server``'s ``controller_plugins``)."""
 

@@ -63,6 +63,13 @@ class ObstacleLayerParams(LayerParams):
     """Defaults to the costmap's ``track_unknown_space``."""
     transform_tolerance: float = 0.2
     tf_filter_tolerance: float = 0.05
+    tf_message_filter: bool = False
+    """navstack: hold each scan up to ``tf_filter_tolerance`` for the transforms of its own
+    instant (Nav2's obstacle layer always does, with a ``tf2_ros::MessageFilter``).  Off:
+    a scan whose odometry is not in the TF buffer yet is dropped -- on the in-process bus
+    that is a scan stamped at the same instant as an odometry sample still queued, more
+    than half of them in some runs.  Off by default until the single-robot suite is
+    re-measured with it (docs/fleet.md); the packaged fleet turns it on."""
 
     @field_validator("observation_sources")
     @classmethod

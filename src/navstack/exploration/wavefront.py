@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -121,8 +122,29 @@ def min_over_neighbours(values: FloatArray) -> FloatArray:
     return out
 
 
+@nb.njit(cache=True)
+def _paint_boxes(out: BoolArray, rows: NDArray[np.int64], cols: NDArray[np.int64],
+                 k: int) -> None:
+    h, w = out.shape
+    for i in range(rows.size):
+        r0, r1 = max(rows[i] - k, 0), min(rows[i] + k + 1, h)
+        c0, c1 = max(cols[i] - k, 0), min(cols[i] + k + 1, w)
+        for r in range(r0, r1):
+            for c in range(c0, c1):
+                out[r, c] = True
+
+
 def dilate(mask: BoolArray, cells: int) -> BoolArray:
-    """``mask`` grown by ``cells`` (square structuring element)."""
+    """``mask`` grown by ``cells`` (square structuring element): ``cells`` iterations of
+    the 3 x 3 binary dilation, i.e. every cell within Chebyshev distance ``cells`` of a
+    ``mask`` cell.  A sparse mask (frontier points, blacklist entries) paints a box
+    around each cell instead of sweeping the whole grid ``cells`` times."""
     if cells <= 0:
         return mask.copy()
-    return np.asarray(ndimage.binary_dilation(mask, np.ones((3, 3), bool), iterations=cells))
+    rows, cols = np.nonzero(mask)
+    if rows.size * (2 * cells + 1) ** 2 > 4 * mask.size:  # dense: sweep the grid
+        return np.asarray(ndimage.binary_dilation(mask, np.ones((3, 3), bool),
+                                                  iterations=cells))
+    out = np.zeros(mask.shape, dtype=bool)
+    _paint_boxes(out, rows.astype(np.int64), cols.astype(np.int64), int(cells))
+    return out

@@ -32,6 +32,11 @@ import numpy as np
 from navstack.core.msgs import Path, Pose2D, PoseStamped
 from navstack.interfaces.api import Navigator, TaskResult
 from navstack.interfaces.hil import LinkKind, hil_stack
+from navstack.interfaces.motion_quality import (
+    length_ratio,
+    self_crossings,
+    sign_changes_per_10m,
+)
 from navstack.interfaces.plots import plot_trajectory
 from navstack.interfaces.stack import NavStack
 from navstack.interfaces.zones import ZoneMonitor, zone_lines, zone_overlays, zones_respected
@@ -117,6 +122,30 @@ class TrajectoryRecorder:
         return np.array(self.rows).reshape(-1, 4)
 
 
+def leg_quality(name: str, executed_xy: np.ndarray, plans: list[np.ndarray]) -> dict[str, Any]:
+    """Issue 18's motion quality of one leg: self-crossings of the driven path, its
+    length over the first plan's, and the worst curvature sign-change rate of its plans
+    (:mod:`navstack.interfaces.motion_quality`)."""
+    rates = [sign_changes_per_10m(p) for p in plans if len(p) > 1]
+    return {"name": name, "self_crossings": self_crossings(executed_xy),
+            "length_ratio": round(length_ratio(executed_xy, plans[0]), 4) if plans else None,
+            "plans": len(plans),
+            "max_sign_changes_per_10m": round(max(rates), 3) if rates else 0.0}
+
+
+def motion_summary(legs: list[dict[str, Any]]) -> dict[str, Any]:
+    """The worst leg per metric and whether issue 18's bounds hold: no self-crossing,
+    length ratio <= 1.15, <= 2 curvature sign changes per 10 m of plan."""
+    ratios = [g["length_ratio"] for g in legs if g["length_ratio"] is not None]
+    out = {"self_crossings": sum(g["self_crossings"] for g in legs),
+           "max_length_ratio": max(ratios, default=0.0),
+           "max_sign_changes_per_10m": max((g["max_sign_changes_per_10m"] for g in legs),
+                                           default=0.0)}
+    out["within_bounds"] = (out["self_crossings"] == 0 and out["max_length_ratio"] <= 1.15
+                            and out["max_sign_changes_per_10m"] <= 2.0)
+    return out
+
+
 def _progress_line(rec: GoalRecord, idx: int, total: int, fb: Any, sim_t: float,
                    rtf: float) -> str:
     dist = getattr(fb, "distance_remaining", float("nan"))
@@ -173,9 +202,12 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
     records = [GoalRecord(name) for name, _ in waypoints]
     live = _Live(show_progress)
     detach = attach(stack) if attach is not None else None
+    legs: list[dict[str, Any]] = []
     try:
         for i, ((_, pose), rec) in enumerate(zip(waypoints, records, strict=True)):
+            k0, n0 = len(plans), len(recorder.rows)
             _run_goal(nav, stack, recorder, pose, rec, i, len(records), goal_timeout_s, live)
+            legs.append(leg_quality(rec.name, recorder.array()[n0:, 1:3], plans[k0:]))
     finally:  # a recording stays readable even if a goal raised
         bag_summary = bag.close() if bag is not None else None
         if detach is not None:
@@ -202,6 +234,7 @@ def run_demo(out: FsPath, seed: int = 1, world: str | None = None, robot: str = 
         "min_clearance_static_m": round(recorder.min_static, 4),
         "min_clearance_moving_m": (round(recorder.min_moving, 4)
                                    if recorder.min_moving is not None else None),
+        "motion_quality": {"legs": legs, **motion_summary(legs)},
         "sim_time_s": round(stack.now, 3),
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(stack.now / wall, 2) if wall > 0 else 0.0,
@@ -261,6 +294,15 @@ def _run_goal(nav: Navigator, stack: NavStack, recorder: TrajectoryRecorder, pos
               + (f" — {rec.reason}" if rec.reason else ""))
 
 
+def _motion_line(m: dict[str, Any] | None) -> str:
+    if not m:
+        return "- motion quality: not measured"
+    return (f"- motion quality: {m['self_crossings']} self-crossings, executed / first plan "
+            f"length at most {m['max_length_ratio']:.2f}, at most "
+            f"{m['max_sign_changes_per_10m']:.1f} curvature sign changes per 10 m of plan "
+            f"({'within' if m['within_bounds'] else 'outside'} issue 18's bounds)")
+
+
 class _Live:
     """One status line that rewrites itself on a terminal, plain lines otherwise."""
 
@@ -299,6 +341,7 @@ def _markdown(r: dict[str, Any]) -> str:
               f"{r['min_clearance_static_m']:.3f} m, to walkers "
               + (f"{r['min_clearance_moving_m']:.3f} m" if r['min_clearance_moving_m']
                  is not None else "– (none in this world)"),
+              _motion_line(r.get("motion_quality")),
               f"- simulated time: {r['sim_time_s']:.1f} s, wall time: {r['wall_time_s']:.1f} s "
               f"(real-time factor {r['real_time_factor']:.1f})",
               *(f"- {line}" for line in zone_lines(r.get("zones"))), "",

@@ -73,6 +73,8 @@ class CoverageTracker:
         self.xy = np.column_stack((w.origin_x + (cols + 0.5) * w.resolution,
                                    w.origin_y + (rows + 0.5) * w.resolution))
         self.last: OccupancyGrid | None = None
+        self._cells: tuple[tuple[float, float, float, int, int], NDArray[np.int64]] | None \
+            = None
         qos = LATCHED if self.topic == "/map" else QoS(depth=1)
         self._sub = self.stack.runtime.bus.subscribe(self.topic, OccupancyGrid, self._on_map,
                                                      qos)
@@ -80,13 +82,16 @@ class CoverageTracker:
     def known_fraction(self, grid: OccupancyGrid) -> float:
         info = grid.info
         data = np.asarray(grid.data).reshape(info.height, info.width)
-        cols = np.floor((self.xy[:, 0] - info.origin.position.x) / info.resolution)
-        rows = np.floor((self.xy[:, 1] - info.origin.position.y) / info.resolution)
-        cols, rows = cols.astype(np.int64), rows.astype(np.int64)
-        ok = (rows >= 0) & (rows < info.height) & (cols >= 0) & (cols < info.width)
-        known = np.zeros(len(self.xy), dtype=bool)
-        known[ok] = data[rows[ok], cols[ok]] >= 0
-        return float(known.mean()) if len(known) else 0.0
+        key = (info.origin.position.x, info.origin.position.y, info.resolution,
+               info.width, info.height)
+        if self._cells is None or self._cells[0] != key:  # the map's geometry changed
+            cols = np.floor((self.xy[:, 0] - key[0]) / info.resolution).astype(np.int64)
+            rows = np.floor((self.xy[:, 1] - key[1]) / info.resolution).astype(np.int64)
+            ok = (rows >= 0) & (rows < info.height) & (cols >= 0) & (cols < info.width)
+            self._cells = (key, rows[ok] * info.width + cols[ok])
+        if len(self.xy) == 0:
+            return 0.0
+        return float(np.count_nonzero(data.ravel()[self._cells[1]] >= 0)) / len(self.xy)
 
     def _on_map(self, grid: OccupancyGrid) -> None:
         self.last = grid
@@ -143,8 +148,8 @@ class SlamLatency:
         slam = self.stack.slam
         if slam is None or slam.mapper is None or not slam.mapper.nodes:
             return 0.0
-        t0 = time.perf_counter()
-        slam.occupancy_grid()
+        t0 = time.perf_counter()  # from every node, as without build_map's reuse
+        slam.mapper.build_map(incremental=False).to_occupancy_grid(crop=True)
         return time.perf_counter() - t0
 
     def summary(self) -> dict[str, float]:

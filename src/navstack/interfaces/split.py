@@ -2,9 +2,10 @@
 
 ``navstack robot`` runs what must keep working when the radio drops: the simulator (or
 drivers) with odometry, the local costmap, the controller and behavior servers, the
-collision monitor and the :class:`~navstack.nodes.link_watchdog.LinkWatchdog` in front of
-the base.  ``navstack base`` runs the map server, global costmap, planner, BT navigator
-and waypoint follower, and sends the mission.  Between them (:func:`robot_wiring`):
+command chain (velocity smoother, collision monitor, twist_mux) and the
+:class:`~navstack.nodes.link_watchdog.LinkWatchdog` in front of the base.
+``navstack base`` runs the map server, global costmap, planner, BT navigator and
+waypoint follower, and sends the mission.  Between them (:func:`robot_wiring`):
 
 ==================  ============  =====================================================
 what                direction     how
@@ -56,8 +57,10 @@ from navstack.navigation.controller_server import ControllerServer
 from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.planner_server import PlannerServer
+from navstack.navigation.velocity_smoother_node import VelocitySmootherNode
 from navstack.navigation.waypoint_follower import load_waypoints
 from navstack.nodes.link_watchdog import LinkWatchdog
+from navstack.nodes.twist_mux import TwistMuxNode
 from navstack.runtime.actions import ActionClient, GoalHandle, GoalStatus
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
 from navstack.runtime.config import load_stack
@@ -154,8 +157,11 @@ class RobotProcess:
                                            d.footprint, d.nav2_file)
         self.behaviors = BehaviorServer(rt, d.behavior_server,
                                         collision_checker=self._collides)
-        self.monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor,
-                                            cmd_out="/cmd_vel_guarded")
+        # the command chain as in process, the mux feeding the link watchdog, not the base
+        self.smoother = VelocitySmootherNode(rt, d.velocity_smoother)
+        self.monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor)
+        self.mux = TwistMuxNode(rt, d.twist_mux.model_copy(
+            update={"cmd_vel_out": "/cmd_vel_guarded"}))
         self.watchdog = LinkWatchdog(rt, lambda: link.peer_up(base))
         for name, typ, qos in ROBOT_TOPICS:
             link.export_topic(name, typ, qos=qos)

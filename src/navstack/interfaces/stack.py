@@ -2,8 +2,9 @@
 
 Wires the data flow of ARCHITECTURE.md §2: simulator (``/scan``, ``/odom``, ``/tf``) ->
 map server (``/map``) -> global costmap (map) + planner server -> local costmap (odom) +
-controller server and behavior server (``/cmd_vel_nav``) -> collision monitor
-(``/cmd_vel``) -> base; BT navigator and waypoint follower orchestrate.
+controller server and behavior server (``/cmd_vel_nav``) -> velocity smoother ->
+collision monitor -> twist_mux (``/cmd_vel``; e-stop lock ``/emergency_stop``) -> base;
+BT navigator and waypoint follower orchestrate (``docs/command_path.md``).
 Navigation parameters are a Nav2 parameter file (the packaged default is
 ``navstack/config/nav2_params.yaml``).  The robot's footprint comes from its profile and
 overrides ``robot_radius``/``footprint`` in the costmap sections.
@@ -44,11 +45,14 @@ from navstack.navigation.costmap_node import CostmapNode
 from navstack.navigation.map_server import MapServer
 from navstack.navigation.nav2_params import Nav2Params, load_nav2_params, stack_navigation
 from navstack.navigation.planner_server import PlannerServer
+from navstack.navigation.velocity_smoother_node import VelocitySmootherNode
 from navstack.navigation.waypoint_follower import WaypointFollower
 from navstack.nodes.amcl import AmclNode
 from navstack.nodes.slam import SlamNode
+from navstack.nodes.twist_mux import TwistMuxNode
 from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
+from navstack.runtime.scheduler import Scheduler
 from navstack.sim.node import SimulatorNode
 from navstack.sim.robot import RobotParams, load_robot, robot_from_mapping
 from navstack.sim.simulator import Simulator
@@ -76,6 +80,13 @@ class StackExtension(Protocol):
         """Whether the extension is up (``start()`` waits for it, at most 2 s)."""
 
 
+class SimulatorNodeFactory(Protocol):
+    """Builds a stack's simulator node: ``(runtime, perfect_localization, wired)``."""
+
+    def __call__(self, runtime: Runtime, perfect_localization: bool,
+                 wired: frozenset[str]) -> SimulatorNode: ...
+
+
 class StackNotStarted(LifecycleError):
     """A running part of a :class:`NavStack` was read before :meth:`NavStack.start`."""
 
@@ -95,7 +106,9 @@ class _Running:
     planner: PlannerServer
     controller: ControllerServer
     behaviors: BehaviorServer
+    velocity_smoother: VelocitySmootherNode
     collision_monitor: CollisionMonitorNode
+    twist_mux: TwistMuxNode
     navigator: BtNavigator
     waypoint_follower: WaypointFollower
 
@@ -110,7 +123,9 @@ class NavStack:
                  spawn: Pose2D | None = None, *,
                  localization: LocalizationName | Localization = "perfect",
                  physics_rate_hz: float = 50.0, map_grid: OccupancyGrid | None = None,
-                 extensions: Sequence[StackExtension] = ()) -> None:
+                 extensions: Sequence[StackExtension] = (),
+                 scheduler: Scheduler | None = None,
+                 simulator_node: SimulatorNodeFactory | None = None) -> None:
         """``world``: a built-in name, a world/map file, or a :class:`World`; ``map_grid``:
         the map given to navigation (default: the world's true static map).
 
@@ -120,6 +135,11 @@ class NavStack:
         no map server), or an option object with parameters --
         ``AmclLocalization({...Nav2 amcl keys})``, ``SlamLocalization(SlamParams | {...})``
         (:mod:`navstack.interfaces.stack_description`).
+
+        ``scheduler``: run on this scheduler (clock) instead of a new one -- the robots of
+        a fleet share one; ``simulator_node``: builds the simulator node instead of a
+        simulator of its own (a fleet robot, :class:`~navstack.sim.node.FleetSimulatorNode`),
+        called with the runtime, whether localization is perfect and the wired parts.
 
         Nothing runs yet: the arguments are resolved and validated into
         :attr:`description`; :meth:`start` brings the stack up."""
@@ -136,6 +156,8 @@ class NavStack:
         self.footprint = d.footprint
         self.body_footprint = d.body_footprint
         self.extensions = tuple(extensions)
+        self._scheduler = scheduler
+        self._simulator_node = simulator_node
         self._running: _Running | None = None
 
     # --- bring-up --------------------------------------------------------------------------
@@ -149,19 +171,20 @@ class NavStack:
         2 s).  Idempotent; returns the stack."""
         if self._running is not None:
             return self
-        rt = Runtime()
+        rt = Runtime(self._scheduler)
         sim = self._start_simulation(rt)
         for extension in self.extensions:
             extension.attach(rt, sim)
         map_server, amcl, slam = self._start_localization(rt)
         filter_servers = self._start_filter_servers(rt)
         global_costmap, local_costmap = self._start_costmaps(rt)
-        planner, controller, behaviors, monitor = self._start_servers(rt, global_costmap,
-                                                                      local_costmap)
+        planner, controller, behaviors = self._start_servers(rt, global_costmap,
+                                                             local_costmap)
+        smoother, monitor, mux = self._start_command_chain(rt)
         navigator, follower = self._start_navigators(rt)
         self._running = _Running(rt, sim, map_server, amcl, slam, global_costmap,
                                  local_costmap, filter_servers, planner, controller,
-                                 behaviors, monitor, navigator, follower)
+                                 behaviors, smoother, monitor, mux, navigator, follower)
         rt.bring_up()
         # a first costmap cycle so planners never see an empty map at t=0
         rt.scheduler.run_until(0.0)
@@ -181,6 +204,8 @@ class NavStack:
         d = self.description
         perfect = isinstance(d.localization, PerfectLocalization)
         wired = frozenset().union(*(e.wired for e in self.extensions))
+        if self._simulator_node is not None:
+            return self._simulator_node(rt, perfect, wired)
         return SimulatorNode(rt, Simulator(d.world, d.robot, d.seed, d.spawn),
                              d.physics_rate_hz, perfect, wired=wired)
 
@@ -206,17 +231,23 @@ class NavStack:
 
     def _start_servers(self, rt: Runtime, global_costmap: CostmapNode,
                        local_costmap: CostmapNode
-                       ) -> tuple[PlannerServer, ControllerServer, BehaviorServer,
-                                  CollisionMonitorNode]:
-        """Planner, controller and behavior servers, and the collision monitor."""
+                       ) -> tuple[PlannerServer, ControllerServer, BehaviorServer]:
+        """Planner, controller and behavior servers."""
         d = self.description
         planner = PlannerServer(rt, d.planner_server, global_costmap, d.nav2_file,
                                 footprint=d.footprint)
         controller = ControllerServer(rt, d.controller_server, local_costmap, d.footprint,
                                       d.nav2_file)
         behaviors = BehaviorServer(rt, d.behavior_server, collision_checker=self.local_collision)
-        monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor)
-        return planner, controller, behaviors, monitor
+        return planner, controller, behaviors
+
+    def _start_command_chain(self, rt: Runtime
+                             ) -> tuple[VelocitySmootherNode, CollisionMonitorNode, TwistMuxNode]:
+        """Velocity smoother -> collision monitor -> twist_mux (docs/command_path.md)."""
+        d = self.description
+        return (VelocitySmootherNode(rt, d.velocity_smoother),
+                CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor),
+                TwistMuxNode(rt, d.twist_mux))
 
     def _start_navigators(self, rt: Runtime) -> tuple[BtNavigator, WaypointFollower]:
         d = self.description
@@ -276,8 +307,16 @@ class NavStack:
         return self._up().behaviors
 
     @property
+    def velocity_smoother(self) -> VelocitySmootherNode:
+        return self._up().velocity_smoother
+
+    @property
     def collision_monitor(self) -> CollisionMonitorNode:
         return self._up().collision_monitor
+
+    @property
+    def twist_mux(self) -> TwistMuxNode:
+        return self._up().twist_mux
 
     @property
     def navigator(self) -> BtNavigator:

@@ -27,12 +27,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal, get_args
 
-from navstack.control.collision_monitor import ApproachParams
+from navstack.control.collision_monitor import CollisionMonitorParams
+from navstack.control.twist_mux import TwistMuxParams
+from navstack.control.velocity_smoother import VelocitySmootherParams
 from navstack.core.config_files import ros_parameters
 from navstack.core.errors import ConfigError, UnknownNameError, did_you_mean
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.core.params import Params
 from navstack.core.polygon import Footprint
+from navstack.interfaces.command_chain import command_chain
 from navstack.localization.amcl.params import AmclParams
 from navstack.mapping.slam_params import SlamParams
 from navstack.navigation.behavior_server import BehaviorServerParams
@@ -150,7 +153,10 @@ class StackDescription:
     planner_server: Mapping[str, Any]
     controller_server: Mapping[str, Any]
     behavior_server: BehaviorServerParams
-    collision_monitor: ApproachParams
+    velocity_smoother: VelocitySmootherParams
+    collision_monitor: CollisionMonitorParams
+    twist_mux: TwistMuxParams
+    """The command chain (``docs/command_path.md``)."""
     bt_navigator: BtNavigatorParams
     navigate_tree: NavigateTreeParams
     waypoint_follower: WaypointFollowerParams
@@ -189,9 +195,13 @@ class StackDescription:
                      self.controller_server, {"costmap": "local_costmap", **padded}),
             NodeSpec("behavior_server", "navstack.navigation.behavior_server.BehaviorServer",
                      self.behavior_server, {"collision_check": "local_costmap, body"}),
+            NodeSpec("velocity_smoother",
+                     "navstack.navigation.velocity_smoother_node.VelocitySmootherNode",
+                     self.velocity_smoother),
             NodeSpec("collision_monitor",
                      "navstack.navigation.collision_monitor_node.CollisionMonitorNode",
                      self.collision_monitor, {"footprint": self.body_footprint}),
+            NodeSpec("twist_mux", "navstack.nodes.twist_mux.TwistMuxNode", self.twist_mux),
             NodeSpec("bt_navigator", "navstack.navigation.bt_navigator.BtNavigator",
                      self.bt_navigator, {"tree": self.navigate_tree}),
             NodeSpec("waypoint_follower",
@@ -255,6 +265,7 @@ def describe_stack(world: World, robot: RobotParams, nav: Mapping[str, Any], fil
                                            key_path="slam_toolbox")
     bt = ros_parameters(nav, "bt_navigator", file=file)
     tree = bt.pop("tree", None) or {}
+    chain = command_chain(nav, file, robot)
     return StackDescription(
         world=world, robot=robot, seed=seed, spawn=start, physics_rate_hz=physics_rate_hz,
         localization=loc, nav2_file=file, nav2_params=nav, map_grid=map_grid,
@@ -262,11 +273,12 @@ def describe_stack(world: World, robot: RobotParams, nav: Mapping[str, Any], fil
         global_costmap=ros_parameters(nav, "global_costmap", file=file),
         local_costmap=ros_parameters(nav, "local_costmap", file=file),
         planner_server=ros_parameters(nav, "planner_server", file=file),
-        controller_server=ros_parameters(nav, "controller_server", file=file),
+        controller_server=chain.controller_server,
         behavior_server=BehaviorServerParams.from_mapping(
-            ros_parameters(nav, "behavior_server", file=file), file=file,
-            key_path="behavior_server"),
-        collision_monitor=ApproachParams(),
+            chain.behavior_server, file=file, key_path="behavior_server"),
+        velocity_smoother=chain.velocity_smoother,
+        collision_monitor=chain.collision_monitor,
+        twist_mux=chain.twist_mux,
         bt_navigator=BtNavigatorParams.from_mapping(bt, file=file, key_path="bt_navigator"),
         navigate_tree=NavigateTreeParams.from_mapping(tree, file=file,
                                                       key_path="bt_navigator.tree"),

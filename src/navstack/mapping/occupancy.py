@@ -280,6 +280,14 @@ class LogOddsGrid:
                     bounds: tuple[float, float, float, float] | None = None) -> LogOddsGrid:
         return cls(bounds=bounds, **params.model_dump())
 
+    def copy(self) -> LogOddsGrid:
+        """An independent copy (same lattice, values, observed marks and scan count)."""
+        out = LogOddsGrid.__new__(LogOddsGrid)
+        out.__dict__.update(self.__dict__)
+        out._l = self._l.copy()
+        out._mark = self._mark.copy()
+        return out
+
     # --- geometry ------------------------------------------------------------------------
     @property
     def resolution(self) -> float:
@@ -331,16 +339,6 @@ class LogOddsGrid:
     def probability(self) -> FloatArray:
         """``float64[H, W]`` occupancy probability ``1 / (1 + exp(-l))`` (0.5 unobserved)."""
         return 1.0 / (1.0 + np.exp(-self._l.astype(np.float64)))
-
-    def copy(self) -> LogOddsGrid:
-        """An independent copy (same parameters, cells and origin)."""
-        other = LogOddsGrid.from_params(self.params)
-        other._ax, other._ay = self._ax, self._ay
-        other._off_col, other._off_row = self._off_col, self._off_row
-        other._scans = self._scans
-        other._l = self._l.copy()
-        other._mark = self._mark.copy()
-        return other
 
     # --- integration ---------------------------------------------------------------------
     def integrate_scan(self, origin_xy: ArrayLike, endpoints_xy: ArrayLike,

@@ -146,6 +146,10 @@ class SlamParams(Params):
     # navstack: give every scan that is not a node a pose by a local match (offline runs
     # score every scan); slam_toolbox drops them
     match_skipped_scans: bool = False
+    # navstack: reference points a new scan sees through by more than this margin [m]
+    # (+ 2% of their range) are left out of its scan match -- people walking, see
+    # mapping/free_space.py; 0 = off (slam_toolbox's behaviour)
+    dynamic_point_margin: float = Field(0.2, ge=0.0)
 
     # --- solver (accepted for slam_toolbox files; the back end is gtsam) ---
     solver_plugin: str = "solver_plugins::CeresSolver"

@@ -23,8 +23,9 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from navstack.core.errors import TransformError
-from navstack.core.msgs import Pose2D, PoseStamped, Twist
+from navstack.core.msgs import Bool, Pose2D, PoseStamped, Twist
 from navstack.navigation import messages as m
+from navstack.navigation.velocity_smoother_node import STOP_TOPIC
 from navstack.runtime.actions import ActionClient
 from navstack.runtime.bus import DEFAULT_QOS, QoS, Subscription
 from navstack.runtime.node import Runtime
@@ -75,6 +76,7 @@ class MissionContext:
         self._latest: dict[str, Any] = {}
         self._subs: list[Subscription[Any]] = []
         self._cmd = bus.publisher(self.cmd_vel_topic, Twist, QoS(depth=1))
+        self._halt = bus.publisher(STOP_TOPIC, Bool, QoS(depth=1))
 
     # --- the robot -------------------------------------------------------------------------
     @property
@@ -91,9 +93,13 @@ class MissionContext:
     def pose_stamped(self, pose: Pose2D) -> PoseStamped:
         return PoseStamped.from_pose2d(pose, self.global_frame, self.now)
 
-    def stop_robot(self) -> None:
-        """Publish a zero velocity on ``cmd_vel_topic`` (as Nav2 behaviours do on exit)."""
+    def stop_robot(self, at_once: bool = False) -> None:
+        """Publish a zero velocity on ``cmd_vel_topic`` (as Nav2 behaviours do on exit);
+        ``at_once`` (an operator's cancel) also asks the velocity smoother to stop without
+        its deceleration ramp (:data:`~navstack.navigation.velocity_smoother_node.STOP_TOPIC`)."""
         self._cmd.publish(Twist())
+        if at_once:
+            self._halt.publish(Bool(True))
 
     # --- bus -------------------------------------------------------------------------------
     def latest(self, topic: str, msg_type: type[M], qos: QoS = DEFAULT_QOS) -> M | None:

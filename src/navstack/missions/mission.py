@@ -138,7 +138,7 @@ class MissionRunner(Node):
         if self.done:
             return
         self.mission.root.stop(Status.INVALID)
-        self.mission.ctx.stop_robot()
+        self.mission.ctx.stop_robot(at_once=True)
         self._finish(MissionStatus.CANCELED, reason)
 
     def _finish(self, status: MissionStatus, reason: str) -> None:

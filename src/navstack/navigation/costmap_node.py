@@ -2,7 +2,12 @@
 
 Subscribes the static map (``map_topic``, latched) and every observation source's topic
 (LaserScan, or PointCloud2 for ``data_type: PointCloud2``), looks up the sensor pose in
-the costmap's ``global_frame`` at the scan's stamp through TF, updates the layers at
+the costmap's ``global_frame`` at the scan's stamp through TF -- with the obstacle
+layer's ``tf_message_filter`` a scan waits in a TF message filter until the odometry of
+its instant is in the buffer, at most ``tf_filter_tolerance`` (Nav2's
+``tf2_ros::MessageFilter``); without it a scan stamped at the same instant as an odometry
+sample not delivered yet is dropped, up to every scan for seconds at a time -- updates
+the layers at
 ``update_frequency`` around the robot pose (``global_frame`` <- ``robot_base_frame``),
 publishes the master grid as an
 OccupancyGrid on ``/<name>/costmap`` at ``publish_frequency`` and offers the Nav2 clear
@@ -37,6 +42,7 @@ from navstack.costmap.static_layer import StaticLayer
 from navstack.navigation.costmap_filter_feed import CostmapFilterFeed
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
+from navstack.runtime.tf_filter import TfMessageFilter
 
 
 def costmap_to_grid(cm: Costmap2D, stamp: float) -> OccupancyGrid:
@@ -65,6 +71,9 @@ class CostmapNode(Node):
         self.updates = 0
         self.tf_failures = 0
         self.last_tf_error = ""
+        # Nav2's obstacle layer puts a tf2 MessageFilter (tf_filter_tolerance) in front of
+        # each scan source: a scan waits for the odometry of its own instant
+        self._scan_filters: list[TfMessageFilter[LaserScan, tuple[Pose2D, float]]] = []
         try:
             self.filter_feed = CostmapFilterFeed(self)
         except ConfigError as exc:
@@ -89,8 +98,17 @@ class CostmapNode(Node):
                         self.create_subscription(topic, PointCloud2,
                                                  partial(self._on_cloud, layer, src), SENSOR_DATA)
                         continue
-                    self.create_subscription(topic, LaserScan,
-                                             partial(self._on_scan, layer, src), SENSOR_DATA)
+                    if not layer.params.tf_message_filter:
+                        self.create_subscription(topic, LaserScan,
+                                                 partial(self._on_scan, layer, src),
+                                                 SENSOR_DATA)
+                        continue
+                    scans: TfMessageFilter[LaserScan, tuple[Pose2D, float]] = TfMessageFilter(
+                        self, self._scan_pose, partial(self._add_scan, layer, src),
+                        queue_size=10, timeout=layer.params.tf_filter_tolerance,
+                        what=f"'{src}' scan", on_drop=self._scan_dropped)
+                    self._scan_filters.append(scans)
+                    self.create_subscription(topic, LaserScan, scans.add, SENSOR_DATA)
         self.filter_feed.configure()
         self.pub = self.create_publisher(f"/{self.name}/costmap", OccupancyGrid, QoS(depth=1))
         self.bus.advertise_service(f"/{self.name}/clear_entirely_{self.name}",
@@ -102,6 +120,9 @@ class CostmapNode(Node):
             self.create_timer(self.publish_period, self.publish)
 
     def on_cleanup(self) -> None:
+        for scans in self._scan_filters:
+            scans.clear()
+        self._scan_filters.clear()
         self.bus.remove_service(f"/{self.name}/clear_entirely_{self.name}")
         self.bus.remove_service(f"/{self.name}/clear_around_{self.name}")
 
@@ -135,14 +156,28 @@ class CostmapNode(Node):
         return (cm.origin_x, cm.origin_y, cm.origin_x + cm.size_x_m, cm.origin_y + cm.size_y_m)
 
     def _on_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan) -> None:
+        """A scan without the TF filter: dropped (counted) when TF cannot place it now."""
         try:
-            tfs = self.tf.lookup(self.global_frame, scan.header.frame_id, scan.header.stamp)
+            pose = self._scan_pose(scan)
         except TransformError as exc:
             self.tf_failed(exc)
             return
-        t = tfs.transform
-        layer.add_scan(scan, Pose2D(t.translation.x, t.translation.y, t.rotation.yaw),
-                       t.translation.z, source)
+        self._add_scan(layer, source, scan, pose)
+
+    def _scan_pose(self, scan: LaserScan) -> tuple[Pose2D, float]:
+        """The sensor pose in ``global_frame`` at the scan's stamp and its height
+        (``TransformError`` while TF cannot tell yet: the scan waits in its filter)."""
+        t = self.tf.lookup(self.global_frame, scan.header.frame_id,
+                           scan.header.stamp).transform
+        return Pose2D(t.translation.x, t.translation.y, t.rotation.yaw), t.translation.z
+
+    def _add_scan(self, layer: ObstacleLayer, source: str, scan: LaserScan,
+                  pose: tuple[Pose2D, float]) -> None:
+        layer.add_scan(scan, pose[0], pose[1], source)
+
+    def _scan_dropped(self, _scan: LaserScan, reason: str) -> None:
+        self.tf_failures += 1
+        self.last_tf_error = reason
 
     def _on_cloud(self, layer: ObstacleLayer, source: str, cloud: PointCloud2) -> None:
         """A PointCloud2 source: points into ``global_frame``; the sensor origin is

@@ -4,9 +4,10 @@ A Nav2 parameter file (``controller_server: ros__parameters: ...``) is checked b
 server is built, so every mistake is one :class:`~navstack.core.errors.ConfigError`
 naming the file, the key path and the closest known name:
 
-* **Top-level sections.**  The servers navstack runs (:data:`RUN_SECTIONS`) are read.
+* **Top-level sections.**  The servers navstack runs (:data:`RUN_SECTIONS`, with the
+  command chain's ``velocity_smoother``, ``collision_monitor`` and ``twist_mux``) are read.
   Sections of the other Nav2 / ROS nodes a real Nav2 file carries (:data:`OTHER_NODES`:
-  ``map_saver``, ``velocity_smoother``, ``collision_monitor``, ``docking_server``,
+  ``map_saver``, ``smoother_server``, ``docking_server``,
   ``robot_state_publisher``, lifecycle managers, ...) are accepted and ignored with a
   note, so real Nav2 files load as they are.  The sections navstack's missions read
   (:data:`MISSION_SECTIONS`: explore_lite's ``explore_node``, the coverage search's
@@ -20,6 +21,11 @@ naming the file, the key path and the closest known name:
   (did you mean ``controller_frequency``?).  A mapping no plugin list names is a typo of
   a listed plugin when one is close (error), else unused (Nav2 ignores it too).
   Plugin and layer sections are checked by the plugins themselves.
+* **Command chain values.**  The ``velocity_smoother``, ``collision_monitor`` and
+  ``twist_mux`` sections are checked whole, as their stages read them: value types and
+  ranges, every polygon and observation source the lists name (a missing section, a
+  ``slowdown_ration``), the mux's topic and lock entries (``priorty``, a priority above
+  255, duplicate topics).
 * **Partial files.**  A file that configures only some servers is merged over the
   packaged defaults (``navstack/config/nav2_params.yaml``) section by section: a server
   the file names takes the file's section as a whole (as a Nav2 node reads only its own
@@ -60,18 +66,19 @@ NESTED = ("global_costmap", "local_costmap")
 
 RUN_SECTIONS: tuple[str, ...] = (
     "bt_navigator", "controller_server", "planner_server", "behavior_server",
-    "waypoint_follower", "global_costmap", "local_costmap", "amcl")
+    "waypoint_follower", "global_costmap", "local_costmap", "amcl",
+    "velocity_smoother", "collision_monitor", "twist_mux")
 """Sections of the servers :class:`~navstack.interfaces.stack.NavStack` builds from the
-file (``amcl`` when it localizes with AMCL).  Costmap filter info and mask servers
-(``[<prefix>_]costmap_filter_info_server``, ``[<prefix>_]filter_mask_server``) are run too;
-their sections pass through unchanged and are checked when the stack builds them
+file (``amcl`` when it localizes with AMCL; the command chain's velocity_smoother,
+collision_monitor and twist_mux, docs/command_path.md).  Costmap filter info and mask
+servers (``[<prefix>_]costmap_filter_info_server``, ``[<prefix>_]filter_mask_server``) are
+run too; their sections pass through unchanged and are checked when the stack builds them
 (:mod:`navstack.navigation.costmap_filter_servers`)."""
 
 OTHER_NODES: frozenset[str] = frozenset({
     # Nav2 nodes navstack does not run, or runs without reading the file
-    "map_server", "map_saver", "smoother_server", "velocity_smoother", "collision_monitor",
-    "collision_detector", "docking_server", "route_server", "loopback_simulator",
-    "recoveries_server", "opennav_docking",
+    "map_server", "map_saver", "smoother_server", "collision_detector", "docking_server",
+    "route_server", "loopback_simulator", "recoveries_server", "opennav_docking",
     "graceful_controller", "assisted_teleop", "nav2_container", "nav2_map_server",
     # helper nodes Nav2 launch files start (older distributions list them too)
     "bt_navigator_rclcpp_node", "bt_navigator_navigate_to_pose_rclcpp_node",
@@ -84,7 +91,7 @@ OTHER_NODES: frozenset[str] = frozenset({
     # other ROS nodes often kept in the same file
     "robot_state_publisher", "joint_state_publisher", "slam_toolbox", "ekf_filter_node",
     "ekf_local_filter_node", "ekf_global_filter_node", "ukf_filter_node",
-    "navsat_transform", "navsat_transform_node", "twist_mux", "teleop_twist_joy_node",
+    "navsat_transform", "navsat_transform_node", "teleop_twist_joy_node",
     "joy_node", "explore_node", "pointcloud_to_laserscan", "laser_filter",
     "scan_to_scan_filter_chain",
 })
@@ -124,6 +131,10 @@ NAV2_ONLY_KEYS: dict[str, frozenset[str]] = {
     "global_costmap": frozenset(),
     "local_costmap": frozenset(),
     "amcl": frozenset(),
+    "velocity_smoother": frozenset(),
+    # Nav2 Kilted's real-time thread option (no threads here)
+    "collision_monitor": frozenset({"use_realtime_priority"}),
+    "twist_mux": frozenset(),
 }
 """Nav2 server keys navstack accepts so Nav2 files load, and ignores with a note."""
 
@@ -139,8 +150,18 @@ _PLUGIN_LISTS: dict[str, dict[str, tuple[str, ...]]] = {
                        "filters": ()},
     "local_costmap": {"plugins": ("static_layer", "obstacle_layer", "inflation_layer"),
                       "filters": ()},
+    "collision_monitor": {"polygons": (), "observation_sources": ()},
 }
 """Lists whose named sections a run server reads (plugins, layers, checkers)."""
+
+CHAIN_SECTIONS: frozenset[str] = frozenset({"velocity_smoother", "collision_monitor",
+                                            "twist_mux"})
+"""The command chain's stages (docs/command_path.md): their values are checked here too,
+as the stage reads them (the other servers' values are checked when they are built)."""
+
+_NO_SPARE_SECTIONS: frozenset[str] = frozenset({"velocity_smoother", "twist_mux"})
+"""Servers without plugin lists: a mapping among their keys is an unknown parameter (a
+``topic:`` for ``topics:``), not a spare plugin section."""
 
 _IGNORED_LISTS: dict[str, tuple[str, ...]] = {
     # lists whose named sections belong to Nav2 features navstack does not load
@@ -166,6 +187,9 @@ def packaged_nav2_params_path() -> Path:
 @lru_cache(maxsize=1)
 def _server_fields() -> dict[str, frozenset[str]]:
     """Keys each run server reads (its params model's fields), imported lazily."""
+    from navstack.control.collision_monitor import CollisionMonitorParams
+    from navstack.control.twist_mux import TwistMuxParams
+    from navstack.control.velocity_smoother import VelocitySmootherParams
     from navstack.costmap.layered_costmap import Costmap2DParams
     from navstack.localization.amcl.params import AmclParams
     from navstack.navigation.behavior_server import BehaviorServerParams
@@ -183,6 +207,11 @@ def _server_fields() -> dict[str, frozenset[str]]:
         "waypoint_follower": frozenset(WaypointFollowerParams.model_fields),
         "global_costmap": costmap, "local_costmap": costmap,
         "amcl": frozenset(AmclParams.model_fields),
+        "velocity_smoother": frozenset(VelocitySmootherParams.model_fields),
+        # the polygon and source sections are named by the lists, not given as fields
+        "collision_monitor": frozenset(CollisionMonitorParams.model_fields)
+        - {"polygon_params", "source_params"},
+        "twist_mux": frozenset(TwistMuxParams.model_fields),
     }
 
 
@@ -255,7 +284,7 @@ def _check_server(name: str, params: dict[str, Any], path: str, file: str,
             ignored.append(f"{name}.{key}")
         elif key in ROS_NODE_KEYS:
             continue
-        elif isinstance(value, Mapping):
+        elif isinstance(value, Mapping) and name not in _NO_SPARE_SECTIONS:
             missing = [n for n in listed if n not in params]
             hint = did_you_mean(key, missing).strip(" ()")
             if hint:
@@ -269,6 +298,35 @@ def _check_server(name: str, params: dict[str, Any], path: str, file: str,
                 f"unknown {name} parameter", file=file, key_path=f"{path}.{key}",
                 suggestion=did_you_mean(key, known).strip(" ()")))
     return kept, errors
+
+
+def _check_chain_values(name: str, kept: dict[str, Any], path: str,
+                        file: str) -> list[ConfigError]:
+    """Check the values of a command-chain section as its stage will read them (types,
+    ranges, polygon and source sections, mux entries); every error names ``path``."""
+    from navstack.control.collision_monitor import collision_monitor_params
+    from navstack.control.twist_mux import twist_mux_params
+    from navstack.control.velocity_smoother import VelocitySmootherParams
+
+    try:
+        if name == "velocity_smoother":
+            VelocitySmootherParams.from_mapping(kept, file=file, key_path=path)
+        elif name == "collision_monitor":
+            missing = [k for k in ("polygons", "observation_sources") if k not in kept]
+            if missing:  # Nav2 declares both without a default
+                return [ConfigError(f"collision_monitor needs '{k}' (Nav2 requires it)",
+                                    file=file, key_path=f"{path}.{k}",
+                                    suggestion=f"list the {k} section names; see the "
+                                               "packaged nav2_params.yaml's collision_monitor")
+                    for k in missing]
+            collision_monitor_params(kept, file=file, key_path=path)
+        elif name == "twist_mux":
+            twist_mux_params({"twist_mux": {ROS_PARAMETERS: kept}}, file=file)
+    except ConfigErrors as exc:
+        return list(exc.errors)
+    except ConfigError as exc:
+        return [exc]
+    return []
 
 
 def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
@@ -311,6 +369,8 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
         kept, server_errors = _check_server(name, {**_wildcard_for(name, wildcard), **params},
                                             path, file, ignored_keys)
         errors.extend(server_errors)
+        if name in CHAIN_SECTIONS and not server_errors:
+            errors.extend(_check_chain_values(name, kept, path, file))
         out[name] = ({name: {ROS_PARAMETERS: kept}} if name in NESTED
                      else {ROS_PARAMETERS: kept})
     for name in filters:

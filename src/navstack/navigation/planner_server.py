@@ -62,6 +62,22 @@ class PlannerServerParams(Params):
     planner_plugins: list[str] = Field(default_factory=lambda: ["GridBased"])
     use_sim_time: bool = True
     plan_topic: str = "/plan"
+    # navstack: check the oriented footprint along each path and replan around the points
+    # where the body does not fit (planning/footprint_path.py; off = Nav2's behaviour)
+    footprint_check: bool = False
+    """navstack: check each path with the oriented, ``footprint_check_margin``-grown
+    footprint; replan around gaps the body does not fit and off obstacles it hugs (for
+    bodies whose axle is not centred)."""
+    footprint_check_margin: float = Field(0.05, ge=0.0)
+    """navstack: tracking margin added to the (padded) footprint for the check [m]."""
+    footprint_check_replans: int = Field(8, ge=0)
+    """navstack: replans (with discs marked lethal in a copy of the costmap) before the
+    best path so far is kept."""
+    footprint_check_block_radius: float = Field(0.1, gt=0.0)
+    """navstack: radius [m] of the discs marked lethal to close a gap or push a path."""
+    footprint_check_shift: float = Field(0.15, ge=0.0)
+    """navstack: largest sideways shift [m] tried: a misfit that no shift fits is a gap,
+    else a hug."""
 
 
 _KNOWN = set(PlannerServerParams.model_fields)
@@ -82,6 +98,7 @@ class PlannerServer(Node):
         self.params = PlannerServerParams.from_mapping(server, file=file, key_path=name)
         self.global_costmap = global_costmap
         body = footprint if footprint is not None else global_costmap.layered.footprint
+        self.footprint = body
         self.planners: dict[str, GlobalPlanner] = {}
         for pname in self.params.planner_plugins:
             key = f"{name}.{pname}"
@@ -95,6 +112,8 @@ class PlannerServer(Node):
             planner.use_simulated_time(runtime.scheduler.mode == "sim")
             self.planners[pname] = planner
         self.plans_computed = 0
+        self.footprint_replans = 0
+        """Paths replaced because the footprint did not fit (``footprint_check``)."""
         self.last_path: Path | None = None
 
     def on_configure(self) -> None:
@@ -136,7 +155,23 @@ class PlannerServer(Node):
         else:
             start_pose = self.tf.lookup_pose2d(frame, node.robot_base_frame)
         planner = self.planners[planner_id or next(iter(self.planners))]
-        path = planner.plan(start_pose, goal_pose, node.costmap)
+        p = self.params
+        if p.footprint_check and self.footprint is not None:
+            # imported here: importing the servers must load no planner plugin module
+            # (navstack.planning's package imports them; tests/core/test_plugins.py)
+            from navstack.planning.footprint_path import plan_footprint_checked
+
+            checked = plan_footprint_checked(
+                lambda cm: planner.plan(start_pose, goal_pose, cm), node.costmap,
+                self.footprint, margin=p.footprint_check_margin,
+                replans=p.footprint_check_replans,
+                block_radius=p.footprint_check_block_radius,
+                shift=p.footprint_check_shift)
+            path = checked.path
+            if checked.replaced:
+                self.footprint_replans += 1
+        else:
+            path = planner.plan(start_pose, goal_pose, node.costmap)
         self.plans_computed += 1
         self.last_path = path
         self.pub_plan.publish(path)

@@ -118,7 +118,7 @@ class GridPlannerBase(GlobalPlanner):
                                + "; choose a goal in free space or raise tolerance")
         target = candidates[0]
         if s_cell == target:
-            return self._to_path(np.array([s_cell], dtype=np.int32), start, goal,
+            return self._to_path(cells_to_world(np.array([s_cell]), costmap), start, goal,
                                  target == g_cell, costmap)
 
         ws = self.workspace(costmap.size_x, costmap.size_y)
@@ -126,11 +126,13 @@ class GridPlannerBase(GlobalPlanner):
         ws.begin(s_cell, target)
         status = self._search(ws, start, goal, cancel, t0)
         if status == FOUND:
-            return self._to_path(ws.cells_to(target), start, goal, target == g_cell, costmap)
+            return self._to_path(self.path_points(ws, s_cell, target, free, weight, costmap),
+                                 start, goal, target == g_cell, costmap)
         # exhausted: every reachable cell is closed; use the nearest reachable candidate
         for cell in candidates:
             if ws.is_closed(cell):
-                return self._to_path(ws.cells_to(cell), start, goal, cell == g_cell, costmap)
+                return self._to_path(self.path_points(ws, s_cell, cell, free, weight, costmap),
+                                     start, goal, cell == g_cell, costmap)
         if not goal_free:
             cost = int(costmap.data[g_cell[1], g_cell[0]])
             raise GoalOccupied(self._blocked_reason("goal", goal, cost)
@@ -190,9 +192,21 @@ class GridPlannerBase(GlobalPlanner):
                 raise PlannerTimeout(f"{what} exceeded {clock.describe(ws.expansions)}; "
                                      f"raise max_planning_time")
 
-    def _to_path(self, cells: NDArray[np.int32], start: Pose2D, goal: Pose2D,
+    def path_points(self, ws: GridSearchWorkspace, start: tuple[int, int],
+                    end: tuple[int, int], free: NDArray[np.bool_], weight: NDArray[np.float64],
+                    costmap: Costmap2D) -> NDArray[np.float64]:
+        """``(K, 2)`` world points from the start cell to the closed ``end`` cell: the
+        cell centres of the search's optimal cell path (NavFn overrides this)."""
+        return cells_to_world(ws.cells_to(end), costmap)
+
+    def refine_points(self, xy: NDArray[np.float64], costmap: Costmap2D) -> NDArray[np.float64]:
+        """Post-process the path's points once its ends are the exact start and goal
+        (identity here; NavFn thins and smooths its descent)."""
+        return xy
+
+    def _to_path(self, xy: NDArray[np.float64], start: Pose2D, goal: Pose2D,
                  reaches_goal: bool, costmap: Costmap2D) -> Path:
-        xy = cells_to_world(cells, costmap)
+        xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
         xy[0] = (start.x, start.y)
         if reaches_goal:
             if len(xy) == 1:
@@ -201,4 +215,5 @@ class GridPlannerBase(GlobalPlanner):
                 xy[-1] = (goal.x, goal.y)
         if len(xy) == 2 and np.allclose(xy[0], xy[1], rtol=0.0, atol=1e-12):
             xy = xy[1:]
+        xy = self.refine_points(xy, costmap)
         return make_path(xy, goal.theta, costmap.frame_id, self.use_final_approach_orientation)

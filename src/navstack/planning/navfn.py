@@ -8,10 +8,23 @@ integer as NavFn stores it), inscribed (253) and lethal (254) cells are obstacle
 unknown (255) cells cost the maximum ``COST_OBS - 1 = 253`` when ``allow_unknown`` is
 true and are obstacles otherwise.
 
-Where NavFn propagates a continuous potential and descends its gradient, this planner
-searches the 8-connected cell graph (step cost = step length x cell cost) and returns the
-optimal cell path; Dijkstra (``use_astar: false``) and A* (octile heuristic scaled by
-``COST_NEUTRAL``, admissible since no cell costs less) return paths of the same cost.
+The path is NavFn's: the interpolated potential field propagated from the robot's cell
+and descended from the goal along its gradient (:mod:`navstack.planning.navfn_potential`),
+so it is smooth in free space and runs along the cost valley, not a staircase of cells.
+The 8-connected cell search (step cost = step length x cell cost; Dijkstra, or A* with
+the octile heuristic scaled by ``COST_NEUTRAL`` when ``use_astar``) runs first: it decides
+reachability, the goal tolerance, cancel and time budgets and the typed errors, and its
+optimal cell path is the fallback when the descent fails (counted in
+``descent_fallbacks``; NavFn would fail the plan).
+
+``smooth_path`` (navstack, default on) runs the smoother server's job on every plan: the
+descent's points (every half cell) are thinned to one every :data:`THIN_CELLS` cells and
+smoothed by Nav2's SimpleSmoother (its default parameters,
+:func:`~navstack.planning.path_utils.smooth_path`) with ``keep_cost``: never into
+inscribed or lethal cells, and no point into a cell costlier than the descent's, so the
+plan stays in the cost valley.  The descent's heading ripples by +-10 degrees over 3-4
+cells (the first-order potential's, whatever the gradient stencil); unsmoothed, that is a
+curvature sign change every 0.1-0.2 m along the plan (issue 18 allows two per 10 m).
 """
 
 from __future__ import annotations
@@ -22,8 +35,11 @@ from pydantic import Field
 
 from navstack.core.params import Params
 from navstack.core.plugins import register_planner
-from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION, Costmap2D
 from navstack.planning.grid_planner import GridPlannerBase
+from navstack.planning.grid_search import GridSearchWorkspace
+from navstack.planning.navfn_potential import navfn_path_cells
+from navstack.planning.path_utils import cells_to_world, smooth_path, thin_points
 
 COST_NEUTRAL = 50
 """NavFn cost of a free cell (``COST_NEUTRAL``)."""
@@ -31,6 +47,8 @@ COST_FACTOR = 0.8
 """NavFn scaling of costmap costs (``COST_FACTOR``)."""
 COST_OBS = 254
 """NavFn obstacle cost; unknown space costs ``COST_OBS - 1`` when allowed."""
+THIN_CELLS = 4
+"""Spacing [cells] of the points kept from the descent before smoothing (0.2 m at 5 cm)."""
 
 def navfn_cost_table(allow_unknown: bool) -> NDArray[np.float64]:
     """NavFn cell cost for every costmap value 0..255; ``-1`` marks obstacles."""
@@ -54,6 +72,10 @@ class NavfnParams(Params):
     """Plan through unknown (NO_INFORMATION) cells, at the highest non-lethal cost."""
     use_final_approach_orientation: bool = False
     """Last pose takes the heading of the last path segment instead of the goal's."""
+    smooth_path: bool = True
+    """navstack: thin the descent's points and smooth them with Nav2's SimpleSmoother,
+    never into costlier cells (what Nav2's smoother server would do to every plan); false
+    returns NavFn's raw descent."""
 
 
 @register_planner("Navfn", nav2="nav2_navfn_planner::NavfnPlanner")
@@ -71,8 +93,31 @@ class NavfnPlanner(GridPlannerBase):
         self.use_final_approach_orientation = self.params.use_final_approach_orientation
         self.h_scale = float(COST_NEUTRAL) if self.params.use_astar else 0.0
         self._table = navfn_cost_table(self.params.allow_unknown)
+        self.descent_fallbacks = 0
+        """Plans whose gradient descent failed and that returned the cell path."""
 
     def cost_model(self, data: NDArray[np.uint8]) -> tuple[NDArray[np.bool_],
                                                            NDArray[np.float64]]:
         weight = self._table[data]
         return weight >= 0.0, weight
+
+    def path_points(self, ws: GridSearchWorkspace, start: tuple[int, int],
+                    end: tuple[int, int], free: NDArray[np.bool_], weight: NDArray[np.float64],
+                    costmap: Costmap2D) -> NDArray[np.float64]:
+        """NavFn's gradient-descent path from ``start`` to ``end`` in world coordinates
+        (cell points -> cell centres), or the search's cell path if the descent fails."""
+        pts = navfn_path_cells(weight, free, start, end, self.params.use_astar,
+                               float(COST_NEUTRAL))
+        if len(pts) < 2:
+            self.descent_fallbacks += 1
+            return super().path_points(ws, start, end, free, weight, costmap)
+        return cells_to_world(pts, costmap)
+
+    def refine_points(self, xy: NDArray[np.float64], costmap: Costmap2D) -> NDArray[np.float64]:
+        """With ``smooth_path``: one point every :data:`THIN_CELLS` cells of arc length
+        (ends kept), then Nav2's SimpleSmoother, collision-aware."""
+        if not self.params.smooth_path or len(xy) < 3:
+            return xy
+        thinned = thin_points(xy, THIN_CELLS * costmap.resolution, costmap,
+                              self.allow_unknown)
+        return smooth_path(thinned, costmap, allow_unknown=self.allow_unknown, keep_cost=True)

@@ -35,8 +35,11 @@ class SimpleSmootherParams(Params):
     refinement_num: int = Field(2, ge=1)
 
 
-def cells_to_world(cells: NDArray[np.integer], costmap: Costmap2D) -> NDArray[np.float64]:
-    """``(K, 2)`` cell indices ``(mx, my)`` -> ``(K, 2)`` world cell centres [m]."""
+def cells_to_world(cells: NDArray[np.integer] | NDArray[np.floating],
+                   costmap: Costmap2D) -> NDArray[np.float64]:
+    """``(K, 2)`` cell coordinates ``(mx, my)`` -> ``(K, 2)`` world points [m]: an integer
+    cell gives its centre, fractional coordinates (cell centre at the integer) scale
+    alike."""
     c = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
     return np.column_stack((costmap.origin_x + (c[:, 0] + 0.5) * costmap.resolution,
                             costmap.origin_y + (c[:, 1] + 0.5) * costmap.resolution))
@@ -48,6 +51,37 @@ def path_length(xy: NDArray[np.float64]) -> float:
     if len(xy) < 2:
         return 0.0
     return float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+
+
+def thin_points(xy: NDArray[np.float64], spacing: float, costmap: Costmap2D | None = None,
+                allow_unknown: bool = False) -> NDArray[np.float64]:
+    """The points of an ``(N, 2)`` polyline nearest to every ``spacing`` metres of arc
+    length (first and last kept, no repeats): a dense path (a gradient descent's
+    half-cell steps) reduced to its shape.  With ``costmap``, a chord that would cross an
+    inscribed or lethal cell (or unknown, unless allowed) keeps the points between its
+    ends, halving until every chord is free -- the thinned path is as safe as the dense
+    one."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) < 3:
+        return xy.copy()
+    s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+    n = max(1, round(s[-1] / spacing))
+    at = np.linspace(0.0, s[-1], n + 1)
+    idx = np.unique(np.concatenate(([0], np.searchsorted(s, at).clip(0, len(xy) - 1),
+                                    [len(xy) - 1])))
+    if costmap is None:
+        return xy[idx]
+    keep: list[int] = [int(idx[0])]
+    todo = [int(i) for i in idx[:0:-1]]  # a stack: the next end on top
+    while todo:
+        a, b = keep[-1], todo[-1]
+        if b - a > 1 and _segment_blocked(xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1],
+                                          costmap.data, costmap.origin_x, costmap.origin_y,
+                                          costmap.resolution, allow_unknown):
+            todo.append((a + b) // 2)
+            continue
+        keep.append(todo.pop())
+    return xy[keep]
 
 
 def orientations(xy: NDArray[np.float64], goal_theta: float,
@@ -126,9 +160,13 @@ def _segment_blocked(x0: float, y0: float, x1: float, y1: float, data: NDArray[n
 @nb.njit(cache=True)
 def _smooth(orig: NDArray[np.float64], data: NDArray[np.uint8], ox: float, oy: float,
             res: float, w_data: float, w_smooth: float, tolerance: float, max_its: int,
-            unknown_ok: bool) -> tuple[NDArray[np.float64], int]:
+            unknown_ok: bool, bound: NDArray[np.int64]) -> tuple[NDArray[np.float64], int]:
+    """Nav2 SimpleSmoother iterations; an update is not taken when a segment to a
+    neighbour would cross a blocked cell or the point's new cell costs more than
+    ``bound[i]``."""
     out = orig.copy()
     n = orig.shape[0]
+    h, w = data.shape
     its = 0
     change = tolerance
     while change >= tolerance and its < max_its:
@@ -139,6 +177,10 @@ def _smooth(orig: NDArray[np.float64], data: NDArray[np.uint8], ox: float, oy: f
                 + w_smooth * (out[i + 1, 0] + out[i - 1, 0] - 2.0 * out[i, 0])
             ny = out[i, 1] + w_data * (orig[i, 1] - out[i, 1]) \
                 + w_smooth * (out[i + 1, 1] + out[i - 1, 1] - 2.0 * out[i, 1])
+            cx = math.floor((nx - ox) / res)
+            cy = math.floor((ny - oy) / res)
+            if cx < 0 or cy < 0 or cx >= w or cy >= h or data[cy, cx] > bound[i]:
+                continue
             if _segment_blocked(out[i - 1, 0], out[i - 1, 1], nx, ny, data, ox, oy, res,
                                 unknown_ok):
                 continue
@@ -153,20 +195,30 @@ def _smooth(orig: NDArray[np.float64], data: NDArray[np.uint8], ox: float, oy: f
 
 def smooth_path(xy: NDArray[np.float64], costmap: Costmap2D,
                 params: SimpleSmootherParams | None = None,
-                allow_unknown: bool = False) -> NDArray[np.float64]:
+                allow_unknown: bool = False, keep_cost: bool = False) -> NDArray[np.float64]:
     """Smooth an ``(N, 2)`` world path, keeping it out of inscribed/lethal cells.
 
     End points never move.  With ``do_refinement`` the smoothed path is smoothed again
     ``refinement_num`` times, each pass anchored to the previous result (Nav2).
+    ``keep_cost`` (navstack): no point moves into a cell that costs more than the cell of
+    its input point, so a path planned along the cost valley stays in it (Nav2's
+    smoother only refuses collisions and cuts into the inflation at corners).
     """
     p = params or SimpleSmootherParams()
     xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) < 3:
         return xy.copy()
+    if keep_cost:
+        mx, my, inside = costmap.world_to_map_array(xy)
+        bound = np.where(inside, costmap.data[my.clip(0, costmap.size_y - 1),
+                                              mx.clip(0, costmap.size_x - 1)], 255)
+    else:
+        bound = np.full(len(xy), 255)
+    bound = np.ascontiguousarray(bound, dtype=np.int64)
     passes = 1 + (p.refinement_num if p.do_refinement else 0)
     out = xy
     for _ in range(passes):
         out, _its = _smooth(out, costmap.data, costmap.origin_x, costmap.origin_y,
                             costmap.resolution, p.w_data, p.w_smooth, p.tolerance,
-                            p.max_its, allow_unknown)
+                            p.max_its, allow_unknown, bound)
     return out

@@ -266,12 +266,20 @@ def grid_polygon_clearance(occ: NDArray[np.bool_], origin_x: float, origin_y: fl
     y1 = math.floor((poly[:, 1].max() + max_dist - origin_y) / resolution)
     square = np.empty((4, 2))
     best = max_dist
+    px0, px1 = poly[:, 0].min(), poly[:, 0].max()
+    py0, py1 = poly[:, 1].min(), poly[:, 1].max()
     for r in range(max(y0, 0), min(y1, h - 1) + 1):
         for c in range(max(x0, 0), min(x1, w - 1) + 1):
             if not occ[r, c]:
                 continue
             bx0 = origin_x + c * resolution
             by0 = origin_y + r * resolution
+            # the gap between the polygon's bounding box and the square bounds the
+            # distance from below: a square that far cannot be the nearest
+            gx = max(bx0 - px1, px0 - (bx0 + resolution), 0.0)
+            gy = max(by0 - py1, py0 - (by0 + resolution), 0.0)
+            if gx * gx + gy * gy >= best * best:
+                continue
             square[0, 0], square[0, 1] = bx0, by0
             square[1, 0], square[1, 1] = bx0 + resolution, by0
             square[2, 0], square[2, 1] = bx0 + resolution, by0 + resolution
@@ -326,3 +334,14 @@ def footprint_clearance(world: World, polygon_world: FloatArray, t: MovingTime,
     (the smaller of :func:`footprint_clearances`)."""
     static, moving = footprint_clearances(world, polygon_world, t, max_dist)
     return static if moving is None else min(static, moving)
+
+
+def polygons_distance(a: FloatArray, b: FloatArray, max_dist: float = math.inf) -> float:
+    """Distance [m] between two closed simple polygons ``(N, 2)`` and ``(M, 2)`` (any vertex
+    counts), 0 when they touch or overlap, capped at ``max_dist`` (robot-robot clearance
+    in a fleet)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    if polygon_hits_moving(a, np.zeros((0, 3)), b[None]):
+        return 0.0
+    return min(float(max_dist), float(_polygons_distance(a, b)))

@@ -19,11 +19,13 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
+from navstack.core.aruco_dictionaries import check_dictionary_name, check_marker_id, get_dictionary
 from navstack.core.errors import ConfigError
 from navstack.core.params import Params
 from navstack.geo.conversions import GeoError, LocalCartesian
 from navstack.geo.gps_goal import parse_coordinate
 from navstack.sim.gnss import world_to_enu
+from navstack.sim.markers import WorldMarker
 from navstack.sim.robot import GeoReferenceParams, RobotParams, load_robot
 from navstack.sim.world import World
 from navstack.sim.world_io import read_yaml_mapping, world_from_mapping
@@ -32,25 +34,42 @@ from navstack.sim.worlds import world_path
 __all__ = [
     "Course",
     "CourseLeg",
+    "DemoSpec",
     "GateSpec",
     "GpsPoint",
     "PostSpec",
+    "StartPose",
     "course_robot",
     "course_world",
     "default_course_path",
     "ll_to_world",
     "load_course",
+    "post_markers",
     "world_to_ll",
 ]
 
 
 class PostSpec(Params):
-    """A marker post: ArUco ``id``, position in the world [m], ``radius`` [m]."""
+    """A marker post: ArUco ``id``, position in the world [m], ``radius`` [m]; a marker of
+    its id (``marker_size`` [m], the black square's side, centred ``marker_height`` [m]
+    above the ground) on each of ``faces`` sides, the first facing ``yaw`` [rad]."""
 
     id: int = Field(ge=0)
     x: float
     y: float
     radius: float = Field(default=0.15, gt=0.0)
+    marker_size: float = Field(default=0.2, gt=0.0)
+    marker_height: float = Field(default=0.8, gt=0.0)
+    faces: int = Field(default=4, ge=1, le=8)
+    yaw: float = 0.0
+
+
+class StartPose(Params):
+    """A world pose [m, rad] (where a benchmark puts the rover for a leg)."""
+
+    x: float
+    y: float
+    yaw: float = 0.0
 
 
 class GateSpec(Params):
@@ -75,10 +94,21 @@ class CourseLeg(GpsPoint):
     kind: Literal["gnss", "post", "gate"]
     post: int | None = None
     gate: str | None = None
+    start: StartPose | None = None
+    """Where ``navstack bench rover`` starts this leg (world frame); None: not benched
+    alone."""
+
+
+class DemoSpec(Params):
+    """The course's demo (``navstack demo --robot rover``): start pose and leg names."""
+
+    start: StartPose
+    legs: list[str] = Field(min_length=1)
 
 
 class Course(Params):
-    """A course file: world, georeference, posts, gates, legs, GPS waypoints."""
+    """A course file: world (a built-in name or a primitives world file's path),
+    georeference, posts, gates, legs, GPS waypoints, demo."""
 
     world: str
     georeference: GeoReferenceParams = Field(default_factory=GeoReferenceParams)
@@ -86,6 +116,7 @@ class Course(Params):
     gates: list[GateSpec] = Field(default_factory=list)
     legs: list[CourseLeg] = Field(default_factory=list)
     gps_waypoints: list[GpsPoint] = Field(default_factory=list)
+    demo: DemoSpec | None = None
 
     @model_validator(mode="after")
     def _references(self) -> Course:
@@ -103,6 +134,10 @@ class Course(Params):
                 raise ValueError(f"legs: post leg '{leg.name}' needs post: one of {ids}")
             if leg.kind == "gate" and leg.gate not in names:
                 raise ValueError(f"legs: gate leg '{leg.name}' needs gate: one of {names}")
+        legs = [leg.name for leg in self.legs]
+        for name in (self.demo.legs if self.demo is not None else []):
+            if name not in legs:
+                raise ValueError(f"demo.legs: '{name}' is not a leg (legs: {legs})")
         return self
 
     def post(self, marker_id: int) -> PostSpec:
@@ -110,6 +145,20 @@ class Course(Params):
             if p.id == marker_id:
                 return p
         raise KeyError(f"no post with marker id {marker_id}")
+
+    def gate(self, name: str) -> GateSpec:
+        for g in self.gates:
+            if g.name == name:
+                return g
+        raise KeyError(f"no gate named {name!r}; gates: {[g.name for g in self.gates]}")
+
+    def leg_post_ids(self, leg: CourseLeg) -> tuple[int, ...]:
+        """The marker ids a leg looks for: none (GNSS), the post, or the gate's two."""
+        if leg.kind == "post" and leg.post is not None:
+            return (leg.post,)
+        if leg.kind == "gate" and leg.gate is not None:
+            return tuple(self.gate(leg.gate).posts)
+        return ()
 
     def leg(self, name: str) -> CourseLeg:
         for leg in self.legs:
@@ -141,13 +190,41 @@ def load_course(path: str | Path | None = None) -> Course:
     return course
 
 
+def post_markers(post: PostSpec, dictionary: str) -> list[WorldMarker]:
+    """The ArUco markers on a post: one of its id on each face, 1 mm proud of the post's
+    surface, facing out (the competition's posts carry the same marker on every side, so
+    a post is recognised from any direction)."""
+    cells = int(get_dictionary(dictionary).markerSize) + 2
+    out = []
+    for k in range(post.faces):
+        yaw = math.remainder(post.yaw + 2.0 * math.pi * k / post.faces, 2.0 * math.pi)
+        d = post.radius + 1e-3
+        out.append(WorldMarker(post.id, dictionary, post.marker_size,
+                               post.x + d * math.cos(yaw), post.y + d * math.sin(yaw),
+                               post.marker_height, yaw, post.marker_size / cells))
+    return out
+
+
 def course_world(course: Course) -> World:
-    """The course's world with its marker posts added as circular obstacles."""
-    path = world_path(course.world)
+    """The course's world with its marker posts added as circular obstacles, each with
+    its ArUco markers (:func:`post_markers`, the world's ``marker_dictionary``)."""
+    path = (Path(course.world) if course.world.endswith((".yaml", ".yml"))
+            else world_path(course.world))
     data: dict[str, Any] = read_yaml_mapping(path)
     circles = list(data.get("circles") or [])
     circles += [{"center": [p.x, p.y], "radius": p.radius} for p in course.posts]
-    return world_from_mapping({**data, "circles": circles}, str(path), path)
+    world = world_from_mapping({**data, "circles": circles}, str(path), path)
+    dictionary = check_dictionary_name(str(data.get("marker_dictionary", "DICT_4X4_50")),
+                                       "marker_dictionary", str(path))
+    for i, p in enumerate(course.posts):
+        check_marker_id(dictionary, p.id, f"posts[{i}].id", str(path))
+        if p.marker_height + 0.5 * p.marker_size > world.wall_height:
+            raise ConfigError(f"post {p.id}'s marker top ({p.marker_height + 0.5 * p.marker_size}"
+                              f" m) is above the world's wall_height ({world.wall_height} m)",
+                              key_path=f"posts[{i}].marker_height")
+    markers = [mk for p in course.posts for mk in post_markers(p, dictionary)]
+    world.markers = tuple(world.markers) + tuple(markers)
+    return world
 
 
 def course_robot(course: Course, robot: str | Path = "rover",

@@ -51,6 +51,7 @@ from navstack.core.msgs import (
 from navstack.core.msgs.geometry_msgs import Quaternion
 from navstack.runtime.bus import SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
+from navstack.sim.fleet import FleetSimulator
 from navstack.sim.simulator import Simulator
 
 OBSTACLES_PERIOD = 0.1
@@ -125,7 +126,10 @@ class SimulatorNode(Node):
 
     def on_activate(self) -> None:
         sensors = self.sim.robot.sensors
-        static = []
+        # REP-120's base_footprint (base_link projected on the ground; the same pose for a
+        # planar robot): Nav2 files name it (amcl, collision_monitor base_frame_id)
+        static = [TransformStamped(Header(self.now, "base_link"), "base_footprint",
+                                   Transform(Vector3(0.0, 0.0, 0.0), Quaternion.from_yaw(0.0)))]
         if self.sim.lidar is not None:
             static.append(self._static_tf(sensors.lidar.frame_id, sensors.lidar.mount))
         if self.sim.imu is not None:
@@ -257,3 +261,22 @@ WIRED_PARTS = frozenset({"base", "odometry", "imu", "gnss", "magnetometer"})
 def _topic(name: str) -> str:
     """Absolute topic name (profile topics are written without the leading slash)."""
     return name if name.startswith("/") else "/" + name
+
+
+class FleetSimulatorNode(SimulatorNode):
+    """One robot of a :class:`~navstack.sim.fleet.FleetSimulator` on its own namespace's
+    bus: publishes that robot's sensors; advancing it advances the whole fleet (every
+    robot sees the others where they are at the same instant)."""
+
+    def __init__(self, runtime: Runtime, fleet: FleetSimulator, robot: str,
+                 perfect_localization: bool = True, wired: Collection[str] = ()) -> None:
+        super().__init__(runtime, fleet.sim(robot), 1.0 / fleet.physics_dt,
+                         perfect_localization, wired=wired)
+        self.fleet = fleet
+
+    def advance(self) -> None:
+        now = self.now
+        self.fleet.advance_to(now)
+        if now - self._last_clock_t >= self.clock_period - 1e-9:
+            self._last_clock_t = now
+            self.pub_clock.publish(Clock(now))

@@ -17,6 +17,13 @@ stays where it was with zero velocity, as a real base stalls against a wall.  A 
 step counts as a new collision only when the previous blocked step is more than
 ``contact_release_s`` (0.5 s) ago, so a robot creeping against a wall (alternating tiny
 free and blocked steps) is one collision, not one per step.
+
+Fleets (:mod:`navstack.sim.fleet`): ``peers`` are the other robots in the same world.
+Their bodies are obstacles to this robot's lidar (their footprint edges are ray-cast like
+a box obstacle's) and to its contact model (a step into a peer's footprint is blocked and
+counted in ``collisions`` and ``robot_collisions``).  One robot owns the moving obstacles
+and yields them to every robot of the fleet; the others follow its obstacle clocks
+(``obstacle_owner``), so all robots live in one world at one instant.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ from navstack.core.msgs import (
     Twist2D,
     TwistWithCovarianceStamped,
 )
-from navstack.sim.collision import footprint_collides
+from navstack.sim.collision import footprint_collides, polygon_hits_moving
 from navstack.sim.gnss import GnssModel, MagnetometerModel
 from navstack.sim.kinematics import RobotState, make_model
 from navstack.sim.lidar3d import Lidar3dModel, cast_cloud
@@ -48,6 +55,8 @@ from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
 from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel
 from navstack.sim.world import World
+
+_NO_CIRCLES = np.zeros((0, 3), dtype=np.float64)
 
 
 class Simulator:
@@ -112,6 +121,12 @@ class Simulator:
         self.distance_travelled = 0.0
         # marked packages on the floor and the gripper (sim/packages.py)
         self.packages = PackageWorld(world.packages, robot.gripper, self._fp_local)
+        self.peers: tuple[Simulator, ...] = ()
+        """Other robots in the same world (a fleet); empty for a robot alone."""
+        self.obstacle_owner: Simulator | None = None
+        """The fleet robot whose obstacle clocks this one follows (``None``: its own)."""
+        self.robot_collisions = 0
+        """Collisions (as counted in ``collisions``) whose contact was another robot."""
 
     # --- commands ------------------------------------------------------------------
     def set_command(self, cmd: Twist2D, now: float) -> bool:
@@ -147,13 +162,22 @@ class Simulator:
             new = self.model.step(self.state, Twist2D(), dt)
         self.time += dt
         if self.obstacle_clocks:
-            self._advance_obstacles(dt)
+            owner = self.obstacle_owner
+            if owner is None:
+                self._advance_obstacles(dt)
+            else:  # a fleet: the owner has advanced the shared obstacles for this step
+                self.obstacle_clocks = owner.obstacle_clocks
+                self._obstacle_near = owner._obstacle_near
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
-        if moved and (self._collides(new) or self._touches_package(new)):
-            if self.time - self._last_contact_t > self.contact_release_s:
-                self.collisions += 1
-            self._last_contact_t = self.time
-            new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
+        if moved:
+            blocked = self._collides(new) or self._touches_package(new)
+            hit_robot = not blocked and bool(self.peers) and self._touches_robot(new)
+            if blocked or hit_robot:
+                if self.time - self._last_contact_t > self.contact_release_s:
+                    self.collisions += 1
+                    self.robot_collisions += hit_robot
+                self._last_contact_t = self.time
+                new = replace(self.state, vx=0.0, vy=0.0, wz=0.0)
         self.in_contact = self.time - self._last_contact_t <= self.contact_release_s
         self.distance_travelled += math.hypot(new.x - self.state.x, new.y - self.state.y)
         self.state = new
@@ -177,7 +201,8 @@ class Simulator:
         exact evaluation, and only when it drops below the yield radius is the pose
         computed again (physics runs at 50 Hz; most obstacles are far most of the time).
         """
-        rx, ry = self.state.x, self.state.y
+        robots = [(self.state.x, self.state.y)]
+        robots += [(p.state.x, p.state.y) for p in self.peers]
         clocks = list(self.obstacle_clocks)
         reach = self.robot_speed_bound * dt
         for i, (obstacle, bound) in enumerate(self._moving_bounds):
@@ -190,7 +215,8 @@ class Simulator:
                 clocks[i] += step
                 continue
             cx, cy, _ = obstacle.pose_at(clocks[i])
-            d_cur = math.hypot(cx - rx, cy - ry)
+            d_now = [math.hypot(cx - rx, cy - ry) for rx, ry in robots]
+            d_cur = min(d_now)
             self._far_slack[i] = d_cur
             if d_cur > radius:
                 self._obstacle_held[i] = 0.0
@@ -199,8 +225,10 @@ class Simulator:
                 continue
             self._obstacle_near[i] = True
             nx, ny, _ = obstacle.pose_at(clocks[i] + step)
-            d_next = math.hypot(nx - rx, ny - ry)
-            if d_next < bound + self.yield_margin and d_next < d_cur:
+            # hold while the step would close in on any robot within the yield margin
+            if any(d_next < bound + self.yield_margin and d_next < d
+                   for d_next, d in zip([math.hypot(nx - rx, ny - ry) for rx, ry in robots],
+                                        d_now, strict=True)):
                 self._obstacle_held[i] += dt  # hold: wait for the robot ...
                 if self._obstacle_held[i] >= self.turn_back_after:
                     self._obstacle_dir[i] = -self._obstacle_dir[i]  # ... then turn back
@@ -237,6 +265,24 @@ class Simulator:
             return False
         return footprint_collides(w, self._footprint_at(state), self.obstacle_clocks)
 
+    def _touches_robot(self, state: RobotState) -> bool:
+        """Footprint contact at ``state`` with a peer's body where it stands now."""
+        reach = 2.0 * self.footprint.circumscribed_radius
+        poly: NDArray[np.float64] | None = None
+        for peer in self.peers:
+            other = peer.footprint.circumscribed_radius
+            if math.hypot(peer.state.x - state.x, peer.state.y - state.y) > reach + other:
+                continue
+            if poly is None:
+                poly = self._footprint_at(state)
+            if polygon_hits_moving(poly, _NO_CIRCLES, peer.body()[None]):
+                return True
+        return False
+
+    def body(self) -> NDArray[np.float64]:
+        """The physical footprint ``(N, 2)`` in the world where the robot stands now."""
+        return self._footprint_at(self.state)
+
     def _footprint_at(self, state: RobotState) -> NDArray[np.float64]:
         """Footprint polygon in the world at ``state`` (plain numpy: runs every step)."""
         c, s = math.cos(state.yaw), math.sin(state.yaw)
@@ -254,11 +300,28 @@ class Simulator:
     def true_ranges(self) -> NDArray[np.float64]:
         assert self.lidar is not None
         lx, ly, lyaw = self.lidar_pose()
-        circles, segments = self.world.moving_at(self.obstacle_clocks)
+        circles, segments = self._sensed_moving(self.lidar.params.range_max)
         w = self.world
         return cast_rays(w.occupied, w.origin_x, w.origin_y, w.resolution, lx, ly, lyaw,
                          self.lidar.beam_angles, self.lidar.params.range_min,
                          self.lidar.params.range_max, circles, segments)
+
+    def _sensed_moving(self, range_max: float) -> tuple[NDArray[np.float64],
+                                                        NDArray[np.float64]]:
+        """Moving shapes a sensor sees: the world's moving obstacles and, in a fleet, the
+        outline edges ``(x1, y1, x2, y2)`` of every peer within ``range_max`` of it."""
+        circles, segments = self.world.moving_at(self.obstacle_clocks)
+        if not self.peers:
+            return circles, segments
+        parts = [segments]
+        for peer in self.peers:
+            reach = range_max + self.footprint.circumscribed_radius \
+                + peer.footprint.circumscribed_radius
+            if math.hypot(peer.state.x - self.state.x, peer.state.y - self.state.y) > reach:
+                continue
+            poly = peer.body()
+            parts.append(np.concatenate((poly, np.roll(poly, -1, axis=0)), axis=1))
+        return circles, np.ascontiguousarray(np.concatenate(parts), dtype=np.float64)
 
     def scan(self, now: float) -> LaserScan | None:
         if self.lidar is None:
@@ -275,7 +338,7 @@ class Simulator:
             self.heights = np.full(w.occupied.shape, p.obstacle_height)
         c, s = math.cos(self.state.yaw), math.sin(self.state.yaw)
         sx, sy = self.state.x + c * m.x - s * m.y, self.state.y + s * m.x + c * m.y
-        circles, segments = w.moving_at(self.obstacle_clocks)
+        circles, segments = self._sensed_moving(p.range_max)
         dist = cast_cloud(w.occupied, self.heights, w.origin_x, w.origin_y, w.resolution,
                           (sx, sy, m.z), self.state.yaw + m.yaw, model.azimuths,
                           model.elevations, p.range_max, circles, segments,

@@ -1,5 +1,5 @@
-"""EStopGate on a bare bus (exact command sequences at the base) and LiveRunner threading,
-pacing and error reporting."""
+"""EStopGate on a bare bus with the twist mux (exact command sequences at the base) and
+LiveRunner threading, pacing and error reporting."""
 
 from __future__ import annotations
 
@@ -8,10 +8,13 @@ import time
 
 import pytest
 
+from navstack.control.twist_mux import twist_mux_params
 from navstack.core.errors import ConfigError
-from navstack.core.msgs import Bool, Twist, Vector3
+from navstack.core.msgs import Twist, Vector3
 from navstack.interfaces.live_runner import EStopGate, LiveRunner, LiveRunnerParams, RunnerError
 from navstack.interfaces.stack import NavStack
+from navstack.nodes.estop import EStopClient, EStopReleaseRefused
+from navstack.nodes.twist_mux import TwistMuxNode
 from navstack.runtime.bus import QoS
 from navstack.runtime.node import Runtime
 
@@ -20,8 +23,15 @@ def _cmd(vx: float, wz: float = 0.0) -> Twist:
     return Twist(Vector3(vx, 0.0, 0.0), Vector3(0.0, 0.0, wz))
 
 
+MUX = {"topics": [{"name": "navigation", "topic": "/nav_vel", "timeout": 0.5, "priority": 10},
+                  {"name": "teleop", "topic": "/joy_vel", "timeout": 0.5, "priority": 100}],
+       "locks": [{"name": "e_stop_lock", "topic": "/emergency_stop", "timeout": 0.0,
+                  "priority": 255}]}
+
+
 @pytest.mark.parametrize("base_first", [True, False])
-def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool) -> None:
+def test_estop_gate_latches_the_mux_lock_and_zeroes_the_base_at_the_same_instant(
+        base_first: bool) -> None:
     rt = Runtime()
     seen: list[tuple[float, float, float]] = []
 
@@ -31,11 +41,13 @@ def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool
 
     if base_first:
         base()
+    TwistMuxNode(rt, twist_mux_params(MUX))
     gate = EStopGate(rt)
     if not base_first:
         base()
-    nav = rt.bus.publisher("/cmd_vel", Twist)
-    teleop = rt.bus.publisher("/cmd_vel", Twist)
+    rt.bring_up()
+    nav = rt.bus.publisher("/nav_vel", Twist)
+    teleop = rt.bus.publisher("/joy_vel", Twist)
     nav.publish(_cmd(0.4))
     rt.scheduler.run_until(0.05)
     assert seen == [(0.0, 0.4, 0.0)]
@@ -48,20 +60,25 @@ def test_estop_gate_overrides_every_command_at_the_same_instant(base_first: bool
     for t, vx, wz in seen:
         last[t] = (vx, wz)
     assert last == {0.0: (0.4, 0.0), 0.05: (0.0, 0.0), 0.1: (0.0, 0.0), 0.2: (0.0, 0.0)}
-    # zeros the base got while latched: the latch's own, and the answers at 0.1 and 0.2 s
-    assert gate.overrides == 3 and gate.latched and gate.latched_at == 0.05
+    # zeros the base got while latched: the mux's and the gate's at the latch, and the
+    # mux's answers to the masked inputs at 0.1 and 0.2 s
+    assert gate.overrides == 4 and gate.latched and gate.latched_at == 0.05
     assert gate.latch("again") == 0.05  # idempotent: keeps the first latch time
     assert gate.release() == 0.25
+    rt.scheduler.run_until(0.75)  # teleop (priority 100, sent at 0.2 s) has timed out
     nav.publish(_cmd(0.25))
-    rt.scheduler.run_until(0.3)
-    assert seen[-1] == (0.25, 0.25, 0.0) and gate.overrides == 3
-    lock: list[bool] = []
-    rt.bus.subscribe("/emergency_stop", Bool, lambda m: lock.append(m.data))
-    rt.scheduler.run_until(0.35)
-    assert lock == [False]  # the twist_mux lock topic, latched, joined late
+    rt.scheduler.run_until(0.8)
+    assert seen[-1] == (0.75, 0.25, 0.0) and gate.overrides == 4
     assert gate.state() == {"latched": False, "latched_at": 0.05, "released_at": 0.25,
-                            "reason": "", "holder": "", "overrides": 3,
+                            "reason": "", "holder": "", "overrides": 4,
                             "refused_releases": 0}
+    other = EStopClient(rt, "telegram:7")
+    other.latch("from the chat")
+    rt.scheduler.run_until(0.85)
+    assert gate.latched and gate.state()["holder"] == "telegram:7"
+    with pytest.raises(EStopReleaseRefused, match="held by 'telegram:7'"):
+        gate.release()
+    assert gate.state()["refused_releases"] == 1
 
 
 def test_runner_paces_runs_commands_in_its_thread_and_stops() -> None:

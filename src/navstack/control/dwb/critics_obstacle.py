@@ -11,6 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
 
 from navstack.control.dwb.critic_base import (
     CriticContext,
@@ -28,7 +29,7 @@ from navstack.control.dwb.params import DWBParams
 from navstack.control.dwb.trajectory_generator import TrajectoryBatch
 from navstack.core.errors import ConfigError
 from navstack.core.polygon import Footprint
-from navstack.costmap.costmap_2d import NO_INFORMATION
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 
 IntArray = NDArray[np.int64]
 
@@ -37,6 +38,12 @@ class ObstacleParams(CriticParams):
     """``<critic>.sum_scores``: sum the costs along the trajectory instead of the last one."""
 
     sum_scores: bool = False
+    max_cost: int = Field(252, ge=1, le=252)
+    """navstack (``BaseObstacle``): cells costlier than this reject a trajectory like
+    inscribed ones, so the robot keeps a clearance beyond its padded footprint (252,
+    the default, is Nav2's rule: only inscribed and lethal cells reject).  With an
+    inflation ``cost = 252 exp(-k (d - r_inscribed))`` a clearance ``c`` beyond the
+    inscribed radius is ``max_cost = 252 exp(-k c)``."""
 
 
 def _aggregate(costs: FloatArray, batch: TrajectoryBatch, sum_scores: bool) -> FloatArray:
@@ -88,6 +95,11 @@ class BaseObstacleCritic(TrajectoryCritic[ObstacleParams]):
         cm = ctx.costmap
         mx, my, inside = batch_cells(batch, cm)
         limit = blocking_cost(cm, ctx.pose)  # escaping the inscribed band is allowed
+        if limit == INSCRIBED_INFLATED_OBSTACLE and self.params.max_cost < 252:
+            limit = self.params.max_cost + 1  # the clearance band, escapable as well
+            here = cm.world_to_map(ctx.pose.x, ctx.pose.y)
+            if here is not None and cm.data[here[1], here[0]] >= limit:
+                limit = INSCRIBED_INFLATED_OBSTACLE
         if not self.params.sum_scores:
             scores = np.empty(len(batch))
             _base_last_scores(cm.data, mx, my, inside, limit,

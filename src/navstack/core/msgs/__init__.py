@@ -4,6 +4,7 @@ Field names follow the ROS 2 message of the same name; arrays are numpy; time is
 seconds.  ``runtime/`` converts to ROS time and CDR at the boundary.
 """
 
+from navstack.core.msgs.command_msgs import CollisionMonitorState, Joy, Range
 from navstack.core.msgs.diagnostic_msgs import (
     DiagnosticArray,
     DiagnosticStatus,
@@ -54,6 +55,7 @@ from navstack.core.msgs.std import Bool, Clock, Float64, Header, String
 __all__ = [
     "Bool",
     "Clock",
+    "CollisionMonitorState",
     "ColorRGBA",
     "CostmapFilterInfo",
     "DiagnosticArray",
@@ -62,6 +64,7 @@ __all__ = [
     "Header",
     "Imu",
     "JointState",
+    "Joy",
     "KeyValue",
     "LaserScan",
     "MagneticField",
@@ -86,6 +89,7 @@ __all__ = [
     "PoseWithCovariance",
     "PoseWithCovarianceStamped",
     "Quaternion",
+    "Range",
     "SpeedLimit",
     "String",
     "TFMessage",

@@ -9,6 +9,7 @@ from navstack.interfaces.cli import (
     aruco_cmds,
     bag_cmds,
     demo_cmds,
+    fleet_cmds,
     health_cmds,
     link_cmds,
     mission_cmds,
@@ -16,8 +17,10 @@ from navstack.interfaces.cli import (
     slam_cmds,
     split_cmds,
     telegram_cmds,
+    teleop_cmds,
 )
 from navstack.interfaces.cli.common import app
 
-__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "health_cmds", "link_cmds",
-           "mission_cmds", "sim_cmds", "slam_cmds", "split_cmds", "telegram_cmds"]
+__all__ = ["app", "aruco_cmds", "bag_cmds", "demo_cmds", "fleet_cmds", "health_cmds", "link_cmds",
+           "mission_cmds", "sim_cmds", "slam_cmds", "split_cmds", "telegram_cmds",
+           "teleop_cmds"]

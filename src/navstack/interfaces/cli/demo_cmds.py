@@ -60,17 +60,33 @@ def demo(
                                        "(simulated seconds per wall second).")] = 1.0,
     link: Annotated[str | None, typer.Option(
         help="Drive the simulator through the robot's vehicle link: udp (rover VCU on "
-             "loopback) or serial (golf cart Arduinos on ptys).")] = None,
+             "loopback) or serial (golf cart Arduinos on ptys).  The rover's mission "
+             "always runs through its UDP VCU link.")] = None,
+    course: Annotated[Path | None, typer.Option(
+        help="With --robot rover: the course YAML whose demo legs run (default: the mars "
+             "yard course, one GNSS, gate and post leg).")] = None,
 ) -> None:
     """Flagship mission: visit named waypoints in order in the simulator, write a report.
 
-    Every goal has a time limit, so the mission always ends.  SIGTERM ends it like
-    Ctrl-C: a recording is closed and stays readable.
+    With ``--robot rover`` (and no --world/--waypoints): the rover's mission -- one GNSS,
+    gate and post leg of the course YAML, run by the rover's behaviour tree through the
+    UDP VCU link.  Every goal has a time limit, so the mission always ends.  SIGTERM
+    ends it like Ctrl-C: a recording is closed and stays readable.
     """
     from navstack.interfaces.demo import run_demo
     from navstack.interfaces.live_cli import LiveOptions, attach_to_demo
 
     check_out_dir(out, "--out")
+    if robot == "rover" and world is None and waypoints is None:
+        if link not in (None, "udp"):
+            raise fail(f"the rover talks to its vehicle over udp, not {link}; use --link udp")
+        if record or web or foxglove:
+            raise fail("--record, --web and --foxglove are not available for the rover "
+                       "mission; give --world/--waypoints for the waypoint demo")
+        _rover_demo(out, seed, course)
+        return
+    if course is not None:
+        raise fail("--course is for --robot rover's mission")
     bag = out / "bag"
     if record and bag.exists() and not force:
         raise fail(f"--record: {bag} already exists (from an earlier run); add --force to "
@@ -170,3 +186,26 @@ def run(
     except NavstackError as exc:
         raise fail(str(exc)) from None
     typer.echo(f"stopped at {reached:.1f} s simulated")
+
+
+def _rover_demo(out: Path, seed: int, course: Path | None) -> None:
+    from navstack.interfaces.rover import run_rover_demo
+
+    try:
+        with stop_on_sigterm():
+            report = run_rover_demo(out, seed, course, link="udp")
+    except NavstackError as exc:
+        raise fail(str(exc)) from None
+    link = report.get("link", {})
+    lat = link.get("command_latency", {})
+    typer.echo(f"vehicle link (udp, {link.get('vehicle', '?')}): "
+               f"{link.get('commands_sent', 0)} commands, added command latency p95 "
+               f"{lat.get('p95_ms', float('nan')):.3f} ms, link losses "
+               f"{link.get('link_losses', '?')}")
+    passed = sum(leg["passed"] for leg in report["legs"])
+    typer.echo(f"{'SUCCESS' if report['success'] else 'FAILURE'}: {passed}/"
+               f"{len(report['legs'])} legs, {report['collisions']} collisions, "
+               f"{report['sim_time_s']:.0f} s simulated in {report['wall_time_s']:.0f} s; "
+               f"report in {out}")
+    if not report["success"]:
+        raise typer.Exit(1)

@@ -77,7 +77,9 @@ def cmd_vel_published(obs: Observations, params: HealthParams,
     ok = rate + 1e-9 >= (1.0 - params.rate_tolerance) * expected if expected else n > 0
     return CheckResult(name, ok, detail, "" if ok else
                        "follow the chain controller_server -> /cmd_vel_nav -> "
-                       "collision_monitor -> /cmd_vel (see the doctor)")
+                       "velocity_smoother -> collision_monitor (stale source? state on "
+                       "/collision_monitor_state) -> twist_mux (locked?) -> /cmd_vel "
+                       "(see the doctor)")
 
 
 def map_latched(obs: Observations, params: HealthParams) -> CheckResult:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 from navstack.core.errors import UnknownNameError
@@ -198,17 +199,29 @@ def _block_robot(stack: NavStack, goal: Pose2D | None, free_travel: float,
 
 
 def _zero_velocity_limits(stack: NavStack, fault: InjectedFault) -> None:
+    """Rebuild every DWB controller with zero maximum velocities; a rotation shim keeps
+    its place and gets the zero-limited DWB as its primary controller (the primary's
+    keys live in the shim's section, as in Nav2)."""
     from navstack.control.dwb.dwb_controller import DWBLocalPlanner
+    from navstack.control.rotation_shim import RotationShimController
 
-    controllers = stack.controller.controllers
-    originals = dict(controllers)
-    for name, ctrl in originals.items():
+    def zeroed(name: str, ctrl: object) -> DWBLocalPlanner:
         if not isinstance(ctrl, DWBLocalPlanner):
             raise HealthError(f"velocity_limits_zero rebuilds DWB controllers; controller "
                               f"'{name}' is {type(ctrl).__name__}")
         zero = ctrl.params.updated(max_vel_x=0.0, max_speed_xy=0.0, max_vel_theta=0.0,
                                    min_vel_x=min(ctrl.params.min_vel_x, 0.0))
-        controllers[name] = DWBLocalPlanner(zero, footprint=stack.footprint)
+        return DWBLocalPlanner(zero, footprint=stack.footprint)
+
+    controllers = stack.controller.controllers
+    originals = dict(controllers)
+    for name, ctrl in originals.items():
+        if isinstance(ctrl, RotationShimController):
+            shim, primary = ctrl, ctrl.primary
+            shim.primary = zeroed(name, primary)
+            fault._undo.append(partial(setattr, shim, "primary", primary))
+        else:
+            controllers[name] = zeroed(name, ctrl)
     fault._undo.append(lambda: controllers.update(originals))
 
 

@@ -178,10 +178,12 @@ class HealthMonitor:
     def _velocity_limits(self) -> dict[str, float]:
         limits: dict[str, float] = {}
         for cname, ctrl in self.stack.controller.controllers.items():
-            p = getattr(ctrl, "params", None)
-            for key in _LIMIT_KEYS:
-                if p is not None and hasattr(p, key):
-                    limits[f"{cname}.{key}"] = float(getattr(p, key))
+            # a wrapper (the rotation shim) shares its section with its primary controller
+            for c in (ctrl, getattr(ctrl, "primary", None)):
+                p = getattr(c, "params", None)
+                for key in _LIMIT_KEYS:
+                    if p is not None and hasattr(p, key):
+                        limits[f"{cname}.{key}"] = float(getattr(p, key))
         k = self.stack.robot.kinematics
         limits["robot.max_vel_x"] = float(k.max_vel_x)
         limits["robot.max_vel_theta"] = float(k.max_vel_theta)

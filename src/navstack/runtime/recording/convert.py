@@ -18,6 +18,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from navstack.core import msgs as m
+from navstack.runtime.recording import convert_command as c
 from navstack.runtime.recording import convert_driver as d
 from navstack.runtime.recording import convert_geometry as g
 from navstack.runtime.recording import convert_nav2 as n
@@ -101,6 +102,10 @@ _TABLE: tuple[Conversion, ...] = (
                n.to_costmap_filter_info, n.from_costmap_filter_info),
     Conversion("nav2_msgs/msg/SpeedLimit", m.SpeedLimit, n.to_speed_limit,
                n.from_speed_limit),
+    Conversion("sensor_msgs/msg/Joy", m.Joy, c.to_joy, c.from_joy),
+    Conversion("sensor_msgs/msg/Range", m.Range, c.to_range, c.from_range),
+    Conversion("nav2_msgs/msg/CollisionMonitorState", m.CollisionMonitorState,
+               c.to_collision_monitor_state, c.from_collision_monitor_state),
 )
 
 #: ROS 1 (and old) spellings read as the ROS 2 type of the same layout
@@ -122,6 +127,8 @@ def humble_typestore() -> Typestore:
     store = get_typestore(Stores.ROS2_HUMBLE)
     for name, text in n.NAV2_MSG_DEFINITIONS.items():
         store.register(get_types_from_msg(text, name))
+    store.register(get_types_from_msg(c.COLLISION_MONITOR_STATE_DEFINITION,
+                                      "nav2_msgs/msg/CollisionMonitorState"))
     return store
 
 
