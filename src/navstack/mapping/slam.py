@@ -910,8 +910,10 @@ class SlamMapper:
         are added to a kept grid as they come (all of them again only when the graph
         moved an integrated node by more than half a cell or a fifth of a degree -- a
         loop closure), and a copy of it gets the free space of the ``recent`` scans
-        ``(ranges, map pose)`` on top (``clear_only``), so that a person who walked away
-        is cleared by the latest scans, not only by the next node's."""
+        ``(ranges, map pose)`` on top (``clear_only``: a person who walked away is
+        cleared by the latest scans, not only by the next node's).  The SLAM node
+        publishes it without ``recent``: in the office route that overlay eroded walls
+        the planner then routed through (docs/mapping.md, "Online")."""
         res = self.params.resolution
         poses = self.poses()
         n_done = self._live_count

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import threading
-from collections import deque
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -106,8 +105,6 @@ class SlamNode(Node):
         self._lock = threading.Lock()
         self._loaded: SlamMapper | None = None
         self._mapped = False  # the first map with a scan in it was published
-        # the latest scans and their map poses, for the published map (2 s at 10 Hz)
-        self._recent: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=20)
         self._scans: TfMessageFilter[LaserScan, tuple[Pose2DMsg, Pose2DMsg]] = TfMessageFilter(
             self, self._scan_transforms, self._on_scan_placed,
             queue_size=self.params.scan_queue_size, timeout=self.params.transform_timeout,
@@ -175,9 +172,6 @@ class SlamNode(Node):
                 scan.range_max, (mount.x, mount.y, mount.theta)))
         odom_arr = np.array([odom.x, odom.y, odom.theta])
         ranges = np.asarray(scan.ranges, np.float32)
-        if self.mapper.nodes and p.mode == "mapping":
-            # the latest scans go into the published map too (live_map)
-            self._recent.append((ranges, self.mapper.pose_of(odom_arr)))
         if p.synchronous:
             if self.mapper.process_scan(ranges, odom_arr, stamp) and not self._mapped:
                 self._mapped = True
@@ -229,14 +223,16 @@ class SlamNode(Node):
             return None if extent is None else unknown_canvas(
                 extent, self.params.resolution, self.params.map_frame, self.now)
         with self._lock:
-            grid = self.mapper.live_map(list(self._recent))
+            # the node scans only: clearing with the latest scans on top eroded walls the
+            # planner then routed through (docs/mapping.md, "Online")
+            grid = self.mapper.live_map()
         msg = grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
         return msg if extent is None else pad_to_extent(msg, extent)
 
     def saved_map(self) -> OccupancyGrid | None:
         """The map as ``save_map`` writes it: every node scan rendered at its current pose
-        (the published live map also clears with the latest scans and re-renders only
-        after a loop closure moves the graph, so it differs from this in a few cells)."""
+        (the published live map re-renders only after a loop closure moves the graph by
+        half a cell, so it differs from this in a few cells)."""
         if self.mapper is None or not self.mapper.nodes:
             return None
         with self._lock:
