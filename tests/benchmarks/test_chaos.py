@@ -12,8 +12,10 @@ from navstack.benchmarks.chaos import (
     _route,
     attach_fault,
     chaos_trips,
+    navigator_give_up_s,
     parse_faults,
     robot_with_fault,
+    trip_timeout_s,
     world_with_fault,
 )
 from navstack.core.errors import ConfigError
@@ -32,6 +34,30 @@ def test_trips_are_deterministic_and_cycle_through_the_faults() -> None:
     assert set(kinds) == {"nominal", *FAULT_KINDS}
     assert all(t[0].startswith(f"chaos_{i:04d}_{t[1]}_") for i, t in enumerate(a))
     assert chaos_trips(24, 4, FAULT_KINDS) != a
+
+
+def test_time_limit_leaves_the_navigator_time_to_fail_a_stuck_goal_itself() -> None:
+    """7 rounds of FollowPath + its retry (10 s progress dwell each) and 6 recoveries
+    of at most 10 s: a stuck goal ends FAILED with the navigator's reason by 200 s."""
+    assert navigator_give_up_s() == 7 * 2 * 10.0 + 6 * 10.0
+    trips = chaos_trips(6, 7, FAULT_KINDS)
+    for _name, _world, start, goal, _fault, timeout in trips:
+        dist = math.hypot(goal.x - start.x, goal.y - start.y)
+        assert timeout == trip_timeout_s(dist) == 220.0 + 10.0 * dist
+
+
+def test_benchmark_time_limit_says_what_the_robot_was_doing() -> None:
+    from dataclasses import replace
+
+    from navstack.benchmarks.navigation import chaos_suite, failure_category, run_scenario
+
+    sc = replace(chaos_suite(1, 7, "none")[0], timeout_s=3.0)
+    out = run_scenario(sc, seed=0)
+    assert out.status == "TIMEOUT"
+    assert out.reason.startswith("timed out after 3 s: navigating (FollowPath), 0 of 6 "
+                                 "recoveries used; ")
+    assert out.reason.endswith(f"{out.final_dist_m:.2f} m from the goal")
+    assert failure_category(out) == "timeout: navigating (FollowPath)"
 
 
 def test_parse_faults_names_the_bad_one() -> None:
@@ -120,3 +146,21 @@ def test_kidnap_moves_the_robot_at_the_given_time() -> None:
                       f"({p1.x:.2f}, {p1.y:.2f})"]
     assert stack.sim.sim.collisions == 0
     assert isinstance(p1, Pose2D)
+
+
+def test_no_trip_starts_on_a_walker_or_the_forklift() -> None:
+    """The seed-7 draw once placed four starts under a walker or the forklift at t = 0:
+    collisions no navigation could avoid."""
+    from navstack.benchmarks.chaos import CLEARANCE_M, world_with_fault
+    from navstack.sim.worlds import load_world
+
+    trips = chaos_trips(400, 7, FAULT_KINDS)
+    worlds = {name: load_world(name) for name in {t[1] for t in trips}}
+    movers_seen = 0
+    for _, wname, start, _, fault, _ in trips:
+        for mover in world_with_fault(worlds[wname], fault).moving_obstacles:
+            movers_seen += 1
+            x, y, _ = mover.pose_at(0.0)
+            extent = mover.radius if mover.shape == "circle" else 0.5 * math.hypot(*mover.size)
+            assert math.hypot(x - start.x, y - start.y) >= extent + CLEARANCE_M, (wname, mover.name)
+    assert movers_seen > 0

@@ -183,3 +183,44 @@ def test_observation_persistence() -> None:
     lc.update_map(5.05, 5.05, 0.0, now=0.6)
     assert lc.costmap.data[50, 60] == 254 and lc.costmap.data[50, 40] == 254
     assert [o.stamp for o in layer.buffers["scan"].observations(1.2)] == [0.5]
+
+
+def test_unmapped_padding_widens_what_the_map_does_not_explain() -> None:
+    """A return on a mapped wall is marked in its cell (Nav2); a return in space the map
+    knows to be free is marked as a disc of unmapped_padding; one next to unknown space
+    (a wall a SLAM map has not published) is explained, so it is not widened."""
+    from navstack.costmap import StaticLayer
+
+    from .helpers import grid
+
+    lc = LayeredCostmap(100, 100, 0.1, track_unknown_space=True,
+                        footprint=Footprint.from_radius(0.1))
+    static = lc.add_plugin(StaticLayer())
+    assert isinstance(static, StaticLayer)
+    m = np.zeros((100, 100), dtype=np.int8)
+    m[:, 80] = 100  # a wall along x = 8.0..8.1
+    m[:, 90:] = -1  # unknown from x = 9.0
+    static.set_map(grid(m, 0.1))
+    params = ObstacleLayerParams(observation_sources="scan", footprint_clearing_enabled=False,
+                                 unmapped_padding=0.25, unmapped_distance=0.15)
+    layer = ObstacleLayer("obstacle_layer", params,
+                          {"scan": ObservationSourceParams(**{**SRC,
+                                                              "obstacle_max_range": 9.0,
+                                                              "raytrace_max_range": 9.0})})
+    lc.add_plugin(layer)
+    # three beams from (2.05, 5.05): a person at x = 5.05 (free space), the wall's face at
+    # x = 8.05, a return at x = 8.95 beside the unknown part of the map
+    layer.add_scan(scan([3.0, 6.0 / math.cos(0.1), 6.9 / math.cos(0.2)], angle_min=0.0),
+                   Pose2D(2.05, 5.05, 0.0), 0.2, "scan")
+    lc.update_map(2.05, 5.05, 0.0)
+    data = layer.costmap.data
+    lethal = {(int(c), int(r)) for r, c in np.argwhere(data == 254)}
+    person = {(50 + dx, 50 + dy) for dx in (-2, -1, 0, 1, 2) for dy in (-2, -1, 0, 1, 2)
+              if dx * dx + dy * dy <= 6}  # cell centres within 0.25 m
+    assert person <= lethal  # the disc around the person
+    wall_y = int((5.05 + 6.0 * math.tan(0.1)) / 0.1)
+    assert (80, wall_y) in lethal and (79, wall_y) not in lethal  # the wall: its cell only
+    far = (2.05 + 6.9, 5.05 + 6.9 * math.tan(0.2))
+    cx, cy = int(far[0] / 0.1), int(far[1] / 0.1)
+    assert (cx, cy) in lethal and (cx - 1, cy) not in lethal  # beside unknown: explained
+    assert len(lethal) == len(person) + 2

@@ -67,13 +67,16 @@ def test_check_names_the_clock_contract_and_the_offset(tmp_path: Path) -> None:
         "robot", "--stack", str(stack), "--clock-offset", "2.0", "--max-seconds", "90",
         "--keep-running"),
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # a wide terminal: rich wraps the table's cells at 80 columns without a tty, and a
+    # wrapped "compensation is off" no longer matches
+    wide = dict(os.environ, COLUMNS="250")
     try:
         bad = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
                                        "--no-compensate", "--duration", "1"),
-                             capture_output=True, text=True, timeout=120)
+                             capture_output=True, text=True, timeout=120, env=wide)
         good = subprocess.run(_navstack("check", "--stack", str(stack), "--link", "base",
                                         "--duration", "1"),
-                              capture_output=True, text=True, timeout=120)
+                              capture_output=True, text=True, timeout=120, env=wide)
     finally:
         robot.kill()
         robot.wait(timeout=10)
@@ -82,3 +85,27 @@ def test_check_names_the_clock_contract_and_the_offset(tmp_path: Path) -> None:
     assert "+2000." in bad.stdout and "compensation is off" in bad.stdout
     assert good.returncode == 0, good.stdout + good.stderr
     assert "compensated on receipt" in good.stdout
+
+
+def test_lockstep_split_matches_the_same_stack_in_one_process(tmp_path: Path) -> None:
+    """Lockstep delivers every message at a time its sender's stamp fixes, so the split
+    drives the in-process run's route (issue 21 acceptance 1, on one goal)."""
+    from navstack.interfaces.split_demo import hausdorff_xy, moving_part, run_split
+    from navstack.interfaces.split_nodes import run_in_process, trajectory_array
+
+    wp = tmp_path / "wp.yaml"
+    wp.write_text(ONE_GOAL)
+    ref = run_in_process(STACK, wp)
+    robot, base = run_split(STACK, wp, lockstep=True, port=free_port(), timeout_s=300)
+    assert ref["goals"][0]["status"] == base["goals"][0]["status"] == "SUCCEEDED"
+    assert ref["collisions"] == robot["collisions"] == 0
+    assert robot["late_deliveries"] == base["late_deliveries"] == 0
+    assert abs(base["goals"][0]["time_s"] - ref["goals"][0]["time_s"]) <= 0.2
+    dev = hausdorff_xy(moving_part(trajectory_array(robot["trajectory"]))[:, 1:3],
+                       moving_part(trajectory_array(ref["trajectory"]))[:, 1:3])
+    assert dev < 0.05
+    # only the link watchdog, last in the robot's chain after the smoother, collision
+    # monitor and twist_mux, publishes /cmd_vel
+    assert any(vx > 0.1 for _, vx, _ in robot["cmd_vel"])
+    assert robot["lockstep"] and base["lockstep"]
+    assert abs(base["robot_offset_s"]) < 1e-9  # lockstep: the barrier's exact estimate

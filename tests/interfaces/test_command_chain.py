@@ -20,6 +20,13 @@ def test_packaged_chain_links_controller_to_base() -> None:
     assert chain.velocity_smoother.cmd_vel_out_topic == chain.collision_monitor.cmd_vel_in_topic
     assert chain.collision_monitor.cmd_vel_out_topic == "/nav_vel"
     assert [e.topic for e in chain.twist_mux.locks] == ["/emergency_stop"]
+    # the body zone against every point, the body + 0.12 m against what the map does not
+    # explain (docs/command_path.md, "Clearance")
+    monitor = chain.collision_monitor
+    assert monitor.polygons == ["FootprintApproach", "MovingApproach"]
+    assert monitor.polygon_params["MovingApproach"].footprint_padding == 0.12
+    assert monitor.polygon_params["MovingApproach"].sources_names == ["scan_unmapped"]
+    assert monitor.source_params["scan_unmapped"].exclude_map_obstacles == 0.15
 
 
 def test_file_without_sections_gets_robot_limits_and_body_approach() -> None:

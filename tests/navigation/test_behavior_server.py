@@ -216,3 +216,33 @@ def test_behavior_section_errors_name_the_file_and_key() -> None:
                                           file="nav2.yaml", key_path="behavior_server")
     assert str(err.value) == ("nav2.yaml: behavior_server.spin.max_rotational_vel: Input should "
                               "be greater than 0 (got -1.0)")
+
+
+def test_a_robot_already_in_collision_may_move_no_deeper() -> None:
+    # a "wall" the robot overlaps by 0.05 m at y <= 0 whose depth grows as y falls:
+    # backing up along it is allowed, turning into it is not
+    def depth(p: Pose2D) -> float:
+        return max(0.0, 0.05 - p.y + 0.1 * abs(p.theta))
+
+    rt = Runtime()
+    base = FakeBase(rt, Pose2D(0.0, 0.0, 0.0))
+    server = BehaviorServer(rt, collision_checker=lambda p: depth(p) > 0.0,
+                            penetration=depth)
+    rt.bring_up()
+    h = send(rt, m.BACKUP, m.BackUpGoal(distance=0.2, speed=0.1))
+    finish(rt, h)
+    assert h.status is GoalStatus.SUCCEEDED and base.pose.x == pytest.approx(-0.2, abs=0.01)
+    h2 = send(rt, m.SPIN, m.SpinGoal(1.0))
+    finish(rt, h2)
+    assert h2.status is GoalStatus.FAILED and h2.result is not None
+    assert h2.result.error_code == m.BehaviorErrorCode.COLLISION_AHEAD
+    assert abs(base.pose.theta) < 0.1
+    # without the penetration function the same robot may not move at all
+    rt3 = Runtime()
+    base3 = FakeBase(rt3, Pose2D(0.0, 0.0, 0.0))
+    BehaviorServer(rt3, collision_checker=lambda p: depth(p) > 0.0)
+    rt3.bring_up()
+    h3 = send(rt3, m.BACKUP, m.BackUpGoal(distance=0.2, speed=0.1))
+    finish(rt3, h3)
+    assert h3.status is GoalStatus.FAILED and base3.pose.x > -0.01
+    assert server.penetration is depth

@@ -91,6 +91,24 @@ def test_controller_failure_runs_recoveries_in_round_robin_and_counts_them() -> 
     assert counts == sorted(counts) and counts[-1] == 6
 
 
+def test_activity_says_what_a_running_goal_is_doing() -> None:
+    """For whoever must stop a goal that has not ended (a benchmark's time limit)."""
+    h = make_harness(NavigateTreeParams(wait_duration=30.0), mode="fail")
+    assert h.nav.activity() == ""
+    h.goal(5.0, 0.0)
+    h.rt.scheduler.run_until(0.07)
+    assert h.nav.activity() == "navigating (ComputePathToPose), 0 of 6 recoveries used"
+    h.rt.scheduler.run_until(100.0, until=lambda: "wait" in h.behaviors.names())
+    h.rt.scheduler.run_until(h.rt.now + 1.0)
+    assert h.nav.activity() == (
+        "recovering (Wait), 3 of 6 recoveries used; last failure: FollowPath failed: no "
+        "valid trajectory: all 520 sampled trajectories collide (NO_VALID_CONTROL)")
+    moving = make_harness(speed=0.5)
+    moving.goal(5.0, 0.0)
+    moving.rt.scheduler.run_until(1.0)
+    assert moving.nav.activity() == "navigating (FollowPath), 0 of 6 recoveries used"
+
+
 def test_recovery_behaviors_choose_the_round_robin_for_a_car() -> None:
     """An Ackermann robot cannot spin: its list leaves Spin out and keeps the order."""
     h = make_harness(FAST.model_copy(update={"recovery_behaviors": ("clear_costmaps", "wait",
@@ -309,3 +327,28 @@ def test_missing_server_unknown_tree_and_deactivation_are_explained() -> None:
     h.nav.deactivate()
     assert running.status is GoalStatus.CANCELED and running.result is not None
     assert running.result.error_msg == "bt_navigator was deactivated"
+
+
+def test_continue_from_goal_radius_plans_the_next_goal_from_the_goal_just_reached() -> None:
+    """A waypoint route plans waypoint to waypoint: the first plan of a goal accepted
+    while the robot stands within the radius of the goal it reached starts at that goal
+    (ComputePathToPose's start); a replan, a robot further away, and the default (0)
+    plan from the robot."""
+    h = make_harness(FAST.model_copy(update={"continue_from_goal_radius": 0.5}))
+    assert h.run_until_done(h.goal(5.0, 0.0)).status is GoalStatus.SUCCEEDED
+    h.base.teleport(Pose2D(5.3, 0.2, 0.1))  # stopped inside the goal tolerance
+    t0 = h.rt.now
+    h.behaviors.path_valid = lambda t: not t0 + 2.5 <= t < t0 + 3.5
+    assert h.run_until_done(h.goal(5.0, 4.0, math.pi / 2)).status is GoalStatus.SUCCEEDED
+    first, replan = (c for _, c in h.planner.calls[1:])
+    assert first.start is not None and first.start.to_pose2d() == Pose2D(5.0, 0.0)
+    assert replan.start is None  # the path went invalid: replanned from the robot
+    h.base.teleport(Pose2D(5.0, 4.6, math.pi / 2))  # 0.6 m off: beyond the radius
+    n = len(h.planner.calls)
+    assert h.run_until_done(h.goal(0.0, 4.0)).status is GoalStatus.SUCCEEDED
+    assert h.planner.calls[n][1].start is None
+    off = make_harness(FAST)  # Nav2's behaviour by default
+    off.run_until_done(off.goal(5.0, 0.0))
+    off.base.teleport(Pose2D(5.3, 0.2, 0.1))
+    off.run_until_done(off.goal(5.0, 4.0))
+    assert [c.start for _, c in off.planner.calls] == [None, None]

@@ -181,3 +181,41 @@ def test_a_source_without_the_map_obstacles_keeps_the_padded_zone_off_the_walls(
     r.rt.scheduler.run_until(0.3)
     # a person 0.16 m ahead of the body: inside the padded zone (0.32 m) after 0.1 s
     assert r.out[-1][1] == 0.0 and r.node.last.polygon == "MovingApproach"
+
+
+def test_unknown_space_explains_a_point_like_a_wall() -> None:
+    """A map being built (SLAM) has not published the walls the robot is discovering:
+    a point in (or within exclude_map_obstacles of) unknown space, or off the map, is
+    not counted as a person; the same point in known free space is."""
+    from navstack.core.msgs import MapMetaData, OccupancyGrid, Point, Pose
+
+    section = {
+        "observation_sources": ["scan_unmapped"], "source_timeout": 0.0,
+        "scan_unmapped": {"type": "scan", "topic": "/scan", "exclude_map_obstacles": 0.15},
+        "polygons": ["MovingApproach"],
+        "MovingApproach": {"type": "polygon", "action_type": "approach",
+                           "footprint_topic": "/fp", "footprint_padding": 0.12,
+                           "min_points": 1, "time_before_collision": 1.2,
+                           "sources_names": ["scan_unmapped"]}}
+    r = Rig(section)
+    r.rt.tf.add_static("map", "odom", Pose2D(0.5, 2.0, 0.0))  # base_link at (0.5, 2)
+    data = np.zeros((80, 80), dtype=np.int8)  # 0.05 m cells from (0, 0), all free
+    data[:, 19:] = -1  # unknown from x = 0.95 on: the point 0.36 m ahead lies there
+    meta = MapMetaData(0.0, 0.05, 80, 80, Pose(Point()))
+    r.sensor("/map", OccupancyGrid, 0.0, OccupancyGrid(Header(0.0, "map"), meta, data))
+    r.sensor("/scan", LaserScan, 0.01, scan_with_obstacle_at(0.36, 0.01))
+    r.drive(0.05, 0.2, wz=0.0)
+    r.rt.scheduler.run_until(0.2)
+    assert [vx for _, vx, _ in r.out] == [0.4] * 4  # explained: not slowed
+    r.rt.tf.add_static("map", "odom", Pose2D(-3.0, 2.0, 0.0))  # off the map: explained
+    r.sensor("/scan", LaserScan, 0.21, scan_with_obstacle_at(0.36, 0.21))
+    r.drive(0.25, 0.3, wz=0.0)
+    r.rt.scheduler.run_until(0.3)
+    assert r.out[-1][1] == 0.4
+    known = np.zeros((80, 80), dtype=np.int8)  # the same space mapped free: a person
+    r.sensor("/map", OccupancyGrid, 0.31, OccupancyGrid(Header(0.31, "map"), meta, known))
+    r.rt.tf.add_static("map", "odom", Pose2D(0.5, 2.0, 0.0))
+    r.sensor("/scan", LaserScan, 0.32, scan_with_obstacle_at(0.36, 0.32))
+    r.drive(0.35, 0.4, wz=0.0)
+    r.rt.scheduler.run_until(0.4)
+    assert r.out[-1][1] == 0.0 and r.node.last.polygon == "MovingApproach"

@@ -98,3 +98,41 @@ def test_descent_reaches_the_source_in_half_cell_steps() -> None:
     np.testing.assert_allclose(pts[-1], [35, 25])  # ... to the goal cell
     steps = np.hypot(*np.diff(pts[1:], axis=0).T)
     assert np.allclose(steps, 0.5)
+
+
+def test_straightened_plan_past_a_person_into_a_door_has_one_s() -> None:
+    """The office corridor with a person marked on it, from the corridor to room E: NavFn's
+    smoothed plan swerves around the person, swings back to the corridor's centre and
+    turns into the door (4 curvature sign changes in 14.7 m, 2.7 per 10 m); straightened
+    (``straighten_deviation`` 0.15 m) it runs from the pinch point to the door (1), no
+    closer to the person and no costlier than the smoothed plan + 15 %."""
+    from scipy import ndimage
+
+    from navstack.sim.worlds import load_world
+
+    w = load_world("office")
+    res = w.resolution
+    yy, xx = np.mgrid[0:w.occupied.shape[0], 0:w.occupied.shape[1]]
+    person = np.hypot(w.origin_x + (xx + 0.5) * res - 12.6,
+                      w.origin_y + (yy + 0.5) * res - 7.9) <= 0.3
+    occ = w.occupied | person
+    d = ndimage.distance_transform_edt(~occ) * res
+    cost = np.where(d <= 0.27, 253, np.where(d <= 0.7, np.floor(252 * np.exp(-2.5 * (d - 0.27))),
+                                             0))
+    cost[occ] = 254
+    cm = Costmap2D.from_array(cost.astype(np.uint8), res, w.origin_x, w.origin_y)
+    start, goal = Pose2D(14.78, 7.45, math.pi), Pose2D(1.5, 10.0, math.pi)
+    smoothed = NavfnPlanner().plan(start, goal, cm).as_array()[:, :2]
+    straight = NavfnPlanner(NavfnParams(straighten_deviation=0.15)).plan(start, goal, cm)
+    xy = straight.as_array()[:, :2]
+    assert curvature_sign_changes(smoothed) == 4
+    assert curvature_sign_changes(xy) == 1
+    assert path_length(xy) <= path_length(smoothed)
+
+    def costs(p: np.ndarray) -> np.ndarray:
+        mx, my, _ = cm.world_to_map_array(p)
+        return cm.data[my, mx]
+
+    near = np.hypot(xy[:, 0] - 12.6, xy[:, 1] - 7.9).min()
+    assert near >= np.hypot(smoothed[:, 0] - 12.6, smoothed[:, 1] - 7.9).min() - 0.05
+    assert costs(xy).max() <= costs(smoothed).max() * 1.15

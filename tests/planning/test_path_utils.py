@@ -10,6 +10,7 @@ import pytest
 
 from navstack.core.msgs import Pose2D
 from navstack.costmap.costmap_2d import Costmap2D
+from navstack.interfaces.motion_quality import curvature_sign_changes
 from navstack.planning import (
     NavfnParams,
     NavfnPlanner,
@@ -62,7 +63,8 @@ def test_smoothing_never_enters_inscribed_or_lethal_cells() -> None:
     data[:42, 26:28] = data[:42, 32:34] = data[40:42, 26:34] = 253
     cm = Costmap2D.from_array(data, 0.05)
     start, goal = Pose2D(*cm.map_to_world(20, 5)), Pose2D(*cm.map_to_world(40, 5))
-    raw = NavfnPlanner(NavfnParams(use_astar=True)).plan(start, goal, cm).as_array()[:, :2]
+    descent = NavfnPlanner(NavfnParams(use_astar=True, smooth_path=False))  # NavFn's own path
+    raw = descent.plan(start, goal, cm).as_array()[:, :2]
     assert (_samples_cost(raw, cm) < 253).all()
     params = SimpleSmootherParams(w_smooth=0.45, w_data=0.05)
     out = smooth_path(raw, cm, params)
@@ -71,3 +73,100 @@ def test_smoothing_never_enters_inscribed_or_lethal_cells() -> None:
     # the same smoothing without the obstacles cuts through the inflated corner
     free = Costmap2D.from_array(np.zeros_like(data), 0.05)
     assert (_samples_cost(smooth_path(raw, free, params), cm) >= 253).any()
+
+
+def test_straighten_replaces_a_wobble_in_free_space_by_one_chord() -> None:
+    from navstack.planning.path_utils import straighten
+
+    cm = Costmap2D.from_array(np.zeros((60, 100), dtype=np.uint8), 0.05)
+    x = np.linspace(0.5, 4.5, 21)
+    xy = np.column_stack((x, 1.5 + 0.05 * np.sin(x * 6.0)))  # +-5 cm ripple
+    out = straighten(xy, cm, 0.15)
+    assert out.tolist() == [xy[0].tolist(), xy[-1].tolist()]
+    bump = xy.copy()
+    bump[10, 1] += 0.3  # a 0.3 m detour point: beyond the deviation bound, kept
+    out = straighten(bump, cm, 0.15)
+    assert bump[10].tolist() in out.tolist()
+    assert straighten(bump, cm, 0.4).tolist() == [xy[0].tolist(), xy[-1].tolist()]
+
+
+def test_straighten_never_crosses_cells_costlier_than_the_chord_ends() -> None:
+    """Around a disc of inflated cost (a person on the costmap) the detour's pinch point
+    stays a vertex: a chord past it would run through costlier cells."""
+    from navstack.planning.path_utils import straighten
+
+    res = 0.05
+    yy, xx = np.mgrid[0:60, 0:100]
+    d = np.hypot((xx + 0.5) * res - 2.5, (yy + 0.5) * res - 2.2)  # a person at (2.5, 2.2)
+    data = np.where(d < 0.3, 254, np.where(d < 0.57, 253,
+                                           np.where(d < 1.0, 252 * np.exp(-2.5 * (d - 0.57)),
+                                                    0))).astype(np.uint8)
+    cm = Costmap2D.from_array(data, res)
+    x = np.linspace(0.5, 4.5, 41)
+    y = 1.5 - 0.35 * np.exp(-((x - 2.5) / 0.6) ** 2)  # dips to 1.15 under the person
+    xy = np.column_stack((x, y))
+    out = straighten(xy, cm, 1.0)
+    assert len(out) >= 3 and out[0].tolist() == xy[0].tolist()
+    assert out[-1].tolist() == xy[-1].tolist()
+    assert _samples_cost(out, cm).max() <= int(_samples_cost(xy, cm).max() * 1.15)
+
+
+
+def _turns(xy: np.ndarray) -> np.ndarray:
+    d = np.diff(xy, axis=0)
+    h = np.arctan2(d[:, 1], d[:, 0])
+    return np.angle(np.exp(1j * np.diff(h)))
+
+
+def _leg() -> tuple[np.ndarray, np.ndarray]:
+    """Corners of a corridor leg heading west: a detour's return (15 deg right), an
+    8 deg kink to the left 0.19 m off the chord past it, a 90 deg right turn into a door;
+    and the leg sampled every ~0.1 m."""
+    corners = [np.array([9.0, 2.0])]
+    h = math.pi
+    for length, turn in ((2.0, 0.0), (2.5, -15.0), (3.0, 8.0), (2.3, -90.0)):
+        h += math.radians(turn)
+        corners.append(corners[-1] + length * np.array([math.cos(h), math.sin(h)]))
+    c = np.array(corners)
+    xy = np.concatenate([np.linspace(c[i], c[i + 1], 25, endpoint=False)
+                         for i in range(len(c) - 1)] + [c[-1:]])
+    return c, xy
+
+
+def test_straighten_drops_a_kink_against_both_corners_around_it() -> None:
+    """The kink lies beyond the deviation bound but turns against both corners around it
+    by less than either, and the chord past it stays in free space: it goes (two
+    curvature sign changes fewer); the corners themselves stay."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    assert np.sign(_turns(corners)).tolist() == [-1.0, 1.0, -1.0]
+    assert curvature_sign_changes(xy) == 2
+    cm = Costmap2D.from_array(np.zeros((140, 220), dtype=np.uint8), 0.05)
+    out = straighten(xy, cm, 0.05)
+    assert curvature_sign_changes(out) == 0
+    assert _distance_to_polyline(corners[2], out) > 0.15  # the kink went
+    for corner in corners[[1, 3]]:  # the two corners stayed (within the bound)
+        assert _distance_to_polyline(corner, out) <= 0.05
+    assert out[0].tolist() == xy[0].tolist() and out[-1].tolist() == xy[-1].tolist()
+
+
+def test_straighten_keeps_a_kink_the_costmap_requires() -> None:
+    """The same leg with a box under the chord past the kink: that chord would cross
+    cells costlier than its ends, so the kink stays."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    data = np.zeros((140, 220), dtype=np.uint8)
+    data[46:50, 86:98] = 254  # x 4.3-4.9, y 2.3-2.5: between the kink and its chord
+    cm = Costmap2D.from_array(data, 0.05)
+    out = straighten(xy, cm, 0.05)
+    assert curvature_sign_changes(out) == 2
+    assert _distance_to_polyline(corners[2], out) <= 0.05
+
+
+def _distance_to_polyline(p: np.ndarray, xy: np.ndarray) -> float:
+    a, b = xy[:-1], xy[1:]
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))

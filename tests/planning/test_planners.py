@@ -236,3 +236,21 @@ def test_final_approach_orientation_and_params_validation() -> None:
     with pytest.raises(ConfigError, match="max_iterations: Value error, must be positive, or -1"):
         AStarParams.from_mapping({"max_iterations": 0})
     assert AStarParams.from_mapping({"max_iterations": -1}).max_iterations == -1
+
+
+def test_navfn_plans_out_of_an_inscribed_start_cell_as_nav2_clears_the_robot_cell() -> None:
+    """Nav2 NavFn's clearRobotCell: a robot whose cell is inscribed (a wall inflated
+    into it) is planned from; a lethal start is still StartOccupied, and the A* planner
+    (no such rule) refuses the inscribed start."""
+    data = np.zeros((20, 30), dtype=np.uint8)
+    data[10, 5] = 253  # the robot's cell, inscribed
+    data[3, 5] = 254
+    cm = _costmap(data)
+    start, goal = Pose2D(*cm.map_to_world(5, 10)), Pose2D(*cm.map_to_world(25, 10))
+    path = NavfnPlanner(NavfnParams(tolerance=0.0)).plan(start, goal, cm)
+    ends = path.as_array()[[0, -1], :2]
+    assert np.allclose(ends, [[start.x, start.y], [goal.x, goal.y]])
+    with pytest.raises(StartOccupied, match=r"is in an obstacle \(cost 254\)"):
+        NavfnPlanner(NavfnParams(tolerance=0.0)).plan(Pose2D(*cm.map_to_world(5, 3)), goal, cm)
+    with pytest.raises(StartOccupied, match=r"is in an obstacle \(cost 253\)"):
+        CostAwareAStar().plan(start, goal, cm)

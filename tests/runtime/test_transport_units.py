@@ -142,3 +142,46 @@ def test_post_from_another_thread_wakes_a_waiting_wall_loop() -> None:
     threading.Timer(0.1, s.post, (lambda: (ran.append(time.monotonic() - t0), s.stop()),)).start()
     s.run_for(5.0)
     assert ran and ran[0] < 2.5  # woken by the post, long before the 5 s sleep ended
+
+
+def test_post_at_runs_at_the_senders_time_and_counts_late_arrivals() -> None:
+    s = Scheduler("sim", start_time=10.0)
+    ran: list[tuple[str, float]] = []
+    s.create_timer(0.1, lambda: ran.append(("timer", s.now)))
+    s.post_at(10.25, lambda: ran.append(("posted", s.now)))
+    s.run_until(10.31)
+    assert [(what, round(t, 9)) for what, t in ran] == [
+        ("timer", 10.1), ("timer", 10.2), ("posted", 10.25), ("timer", 10.3)]
+    assert s.late_posts == 0
+    s.post_at(10.2, lambda: ran.append(("late", s.now)))  # the loop is past 10.2 already
+    s.run_until(10.35)
+    assert ran[-1] == ("late", 10.31) and s.late_posts == 1
+
+
+def test_horizon_stops_the_loop_and_run_until_never_passes_it() -> None:
+    s = Scheduler("sim", start_time=0.0)
+    blocked: list[float] = []
+    ran: list[float] = []
+    s.create_timer(0.1, lambda: ran.append(s.now))
+    s.horizon = lambda: 0.25
+
+    def on_blocked() -> None:  # the peer answers once: the horizon moves to 0.45
+        blocked.append(s.now)
+        s.horizon = lambda: 0.45
+        s.on_blocked = None
+
+    s.on_blocked = on_blocked
+    s.run_until(2.0, until=lambda: bool(ran) and ran[-1] >= 0.35)
+    assert blocked == [0.2]  # waited at the horizon 0.25 with the next event at 0.3
+    assert [round(t, 6) for t in ran] == [0.1, 0.2, 0.3, 0.4]
+    s.run_until(0.48)  # nothing is due before 0.48: time runs out, but at the horizon
+    assert s.now == 0.45
+
+
+def test_idle_until_moves_the_clock_only_past_no_pending_work() -> None:
+    s = Scheduler("sim", start_time=0.0)
+    s.call_at(0.5, lambda: None)
+    s.idle_until(0.7)
+    assert s.now == 0.0  # an event at 0.5 is still due
+    s.idle_until(0.4)
+    assert s.now == 0.4

@@ -1,5 +1,6 @@
 """The simulator on the bus: topics, TF, determinism, bad commands, contact counting."""
 
+import itertools
 import math
 
 import numpy as np
@@ -82,3 +83,54 @@ def test_driving_into_a_wall_counts_one_collision_and_stalls() -> None:
     assert sim.collisions == 1
     assert sim.in_contact
     assert sim.pose.y < 9.0  # stopped at the wall, did not pass through
+
+
+def test_gyro_odometry_takes_the_yaw_rate_from_the_imu_samples_of_its_period() -> None:
+    """``odometry.yaw_rate_source: imu`` (the golf cart): each /odom's yaw rate is the
+    mean gyro z of the IMU samples since the previous one (the sample at the same
+    instant included, as the cart's Mega reads its IMU before writing the line), the
+    speed is the wheels', and the pose is dead-reckoned with them -- the cart driver's
+    odometry (drivers/odometry.py) on the same samples."""
+    from navstack.core.msgs import Imu
+    from navstack.drivers.odometry import DeadReckoning
+
+    rt, node = build_sim("campus", "golf_cart", 5)
+    assert node.sim.gyro_odometry
+    gyro: list[tuple[float, float]] = []
+    odom: list[Odometry] = []
+    rt.bus.subscribe("/imu", Imu, lambda m: gyro.append((m.header.stamp, m.angular_velocity.z)))
+    rt.bus.subscribe("/odom", Odometry, odom.append)
+    pub = rt.bus.publisher("/cmd_vel", Twist)
+    rt.scheduler.create_timer(0.05, lambda: pub.publish(Twist.planar(1.5, 0.0, 0.3)), 0.0)
+    rt.bring_up()
+    rt.scheduler.run_until(4.0)
+    assert len(odom) >= 195 and len(gyro) >= 2 * len(odom) - 5
+    dr = DeadReckoning(odom[0].pose.pose.position.x, odom[0].pose.pose.position.y,
+                       odom[0].pose.pose.orientation.yaw)
+    for prev, msg in itertools.pairwise(odom):
+        t0, t1 = prev.header.stamp, msg.header.stamp
+        window = [w for t, w in gyro if t0 < t <= t1 + 1e-9]
+        assert len(window) == 2
+        w = msg.twist.twist.angular.z
+        assert w == sum(window) / 2
+        dr.update(msg.twist.twist.linear.x, w, t1 - t0)
+    last = odom[-1].pose.pose
+    assert math.isclose(last.position.x, dr.x, abs_tol=1e-9)
+    assert math.isclose(last.position.y, dr.y, abs_tol=1e-9)
+    assert math.isclose(last.orientation.yaw, dr.yaw, abs_tol=1e-9)
+    assert 0.25 < abs(dr.yaw - odom[0].pose.pose.orientation.yaw) < 1.5  # it turned
+
+
+def test_gyro_odometry_needs_the_imu() -> None:
+    import pytest
+
+    from navstack.core.errors import ConfigError
+    from navstack.sim.robot import load_robot
+    from navstack.sim.simulator import Simulator
+    from navstack.sim.worlds import load_world
+
+    robot = load_robot("golf_cart")
+    sensors = robot.sensors.model_copy(update={
+        "imu": robot.sensors.imu.model_copy(update={"enabled": False})})
+    with pytest.raises(ConfigError, match="yaw_rate_source 'imu' needs the IMU"):
+        Simulator(load_world("campus"), robot.model_copy(update={"sensors": sensors}))

@@ -8,12 +8,14 @@ hardware-in-the-loop demos against their in-process twins.
    latency.  Commands go out every ``pace`` s (default 2 ms), as a driver's timer would.
    Metrics ``rover_udp_latency_p50_ms`` / ``_p95_ms`` / ``_max_ms`` and
    ``cart_serial_latency_*``; budget p95 <= 5 ms.
-2. **HIL demos** (skipped with ``--quick`` for the cart): ``navstack demo --robot rover
-   --link udp`` and ``--robot golf_cart --link serial`` with seed 1, each also run in
-   process with the same seed; metrics: success, collisions, the command latency the
-   demo measured (p95), and the trajectory deviation -- the largest distance from a
-   point of either trajectory to the other's path (symmetric Hausdorff distance over
-   0.1 s samples), budget 0.3 m.  Both runs plan deterministically: on simulated time
+2. **HIL demos** (with ``--quick`` only the rover, seed 1): ``navstack demo --robot
+   rover --link udp`` and ``--robot golf_cart --link serial`` with seeds 1 and 2
+   (:data:`SEEDS`), each also run in process with the same seed; metrics per seed
+   (``<robot>_s<seed>_...``) and the worst seed (``<robot>_...``): success,
+   collisions, the command latency the demo measured (p95), and the trajectory
+   deviation -- the largest distance from a point of either trajectory to the other's
+   path (symmetric Hausdorff distance of the x, y positions over 0.1 s samples),
+   budget 0.3 m.  Both runs plan deterministically: on simulated time
    the planners count ``max_planning_time`` in expansions, not wall seconds
    (:mod:`navstack.planning.budget`), so only the link can make them differ.
    ``first_goal_deviation_m``: the same over the first leg.  ``sensitivity_1mm_m``: the
@@ -68,12 +70,12 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
                          ) -> dict[str, float]:
     """Added command latency of one link (module docstring), in ms."""
     tmp = Path(tempfile.mkdtemp(prefix="navstack-bench-link-"))
-    decoded: list[float] = []
+    decoded: list[tuple[object, float]] = []
     got = threading.Condition()
 
-    def on_command(_cmd: object, wall: float) -> None:
+    def on_command(cmd: object, wall: float) -> None:
         with got:
-            decoded.append(wall)
+            decoded.append((cmd, wall))
             got.notify_all()
 
     far_t: Transport
@@ -95,8 +97,10 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
         driver = SerialTransport("steering", str(tmp / "ttyBENCH"), 115200)
     driver.open()
     latencies: list[float] = []
-    lost = sent = 0
+    lost = 0
+    cursor = 0  # decodes before it belong to earlier commands
     rng = np.random.default_rng(0)
+    decode = decode_vcu_command if kind == "udp" else decode_cart_command
     try:
         for _ in range(commands):
             vx, wz = float(rng.uniform(-1, 1)), float(rng.uniform(-0.5, 0.5))
@@ -106,17 +110,22 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
             if not driver.write(packet):
                 lost += 1
                 continue
-            n = sent  # the vehicle decodes in order: this command is decode number n
-            sent += 1
+            # the decode of *this* packet, found by its content: a late decode of an
+            # earlier command, or bytes the framer resynchronised on, are not it
+            expected = decode(packet)
+            start = cursor
 
-            def arrived(n: int = n) -> bool:
-                return len(decoded) > n
+            def arrived(expected: object = expected, start: int = start) -> bool:
+                return any(c == expected for c, _ in decoded[start:])
 
             with got:
                 if not got.wait_for(arrived, timeout=0.5):
-                    lost += 1  # late: it still takes its place in ``decoded``
+                    lost += 1
+                    cursor = len(decoded)
                     continue
-                latencies.append(decoded[n] - t0)
+                k = next(i for i in range(start, len(decoded)) if decoded[i][0] == expected)
+                latencies.append(decoded[k][1] - t0)
+                cursor = k + 1
             time.sleep(pace)
     except MalformedPacket:
         lost += 1
@@ -126,12 +135,22 @@ def measure_link_latency(kind: str, commands: int = 2000, pace: float = 0.002
         for f in tmp.iterdir():
             f.unlink()
         tmp.rmdir()
+    if not latencies:
+        raise RuntimeError(f"bench link ({kind}): none of {commands} commands reached the "
+                           f"vehicle; driver link: {driver.stats}; vehicle link: "
+                           f"{far_t.stats}")
     return {**_percentiles(latencies), "lost": float(lost)}
 
 
 def trajectory_deviation(a: np.ndarray, b: np.ndarray) -> float:
     """Symmetric Hausdorff distance [m] between two (N, 2) sampled trajectories, each
-    point measured to the other's polyline."""
+    point measured to the other's polyline.  Positions only: a ``t, x, y`` array would
+    count a delay in seconds as metres (the cause of the rover's unexplained 0.3-0.6 m
+    before), so anything but two columns is refused."""
+    for name, arr in (("a", a), ("b", b)):
+        if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) < 2:
+            raise ValueError(f"trajectory_deviation: '{name}' must be an (N >= 2, 2) array "
+                             f"of x, y positions, got shape {arr.shape}")
     def to_path(points: np.ndarray, path: np.ndarray) -> float:
         p0, d = path[:-1], np.diff(path, axis=0)
         length2 = np.maximum((d ** 2).sum(1), 1e-12)
@@ -169,7 +188,7 @@ def compare_demo(robot: str, link: str, out: Path, seed: int = 1,
         "robot": robot, "link": link, "inproc_success": ref["success"],
         "hil_success": hil["success"], "hil_collisions": hil["collisions"],
         "inproc_collisions": ref["collisions"],
-        "deviation_m": round(trajectory_deviation(a, b), 4),
+        "deviation_m": round(trajectory_deviation(a[:, 1:3], b[:, 1:3]), 4),
         "first_goal_deviation_m": round(_first_goal_deviation(a, b, ref), 4),
         "hil_latency_p50_ms": lat["p50_ms"], "hil_latency_p95_ms": lat["p95_ms"],
         "hil_latency_max_ms": lat["max_ms"], "commands": hil["link"]["commands_sent"],
@@ -182,7 +201,7 @@ def compare_demo(robot: str, link: str, out: Path, seed: int = 1,
                        spawn.y + SENSITIVITY_OFFSET_M * math.sin(spawn.theta), spawn.theta)
         run_demo(out / f"{robot}-moved", seed, robot=robot, show_progress=False, spawn=moved)
         c = _trajectory(out / f"{robot}-moved")
-        case["sensitivity_1mm_m"] = round(trajectory_deviation(a, c), 4)
+        case["sensitivity_1mm_m"] = round(trajectory_deviation(a[:, 1:3], c[:, 1:3]), 4)
         case["sensitivity_1mm_first_goal_m"] = round(_first_goal_deviation(a, c, ref), 4)
     return case
 
@@ -202,24 +221,42 @@ def _first_goal_deviation(a: np.ndarray, b: np.ndarray, ref: dict[str, Any]) -> 
     return trajectory_deviation(leg_a, b[:k + 1, 1:3])
 
 
+SEEDS = (1, 2)
+"""Seeds of the HIL comparisons (the route's sensitivity is measured on the first)."""
+
+
 def run(quick: bool, data_dir: Path, commands: int = 2000) -> BenchResult:
     result = BenchResult("link", show_cases=True)
+    loads = [os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")]
     for kind, name in (("udp", "rover_udp"), ("serial", "cart_serial")):
         lat = measure_link_latency(kind, 500 if quick else commands)
         for key in ("p50_ms", "p95_ms", "max_ms"):
             result.metrics[f"{name}_latency_{key}"] = round(lat[key], 4)
         result.metrics[f"{name}_lost"] = lat["lost"]
     robots = [("rover", "udp")] + ([] if quick else [("golf_cart", "serial")])
+    seeds = SEEDS[:1] if quick else SEEDS
     with tempfile.TemporaryDirectory(prefix="navstack-bench-hil-") as tmp:
         for robot, link in robots:
-            case = compare_demo(robot, link, Path(tmp))
-            result.cases.append(case)
-            for key in ("hil_success", "hil_collisions", "deviation_m",
-                        "first_goal_deviation_m", "sensitivity_1mm_m", "hil_latency_p95_ms"):
-                if key in case:
-                    result.metrics[f"{robot}_{key}"] = float(case[key])
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+            worst: dict[str, float] = {}
+            for seed in seeds:
+                case = compare_demo(robot, link, Path(tmp) / f"seed{seed}", seed=seed,
+                                    sensitivity=seed == seeds[0])
+                case["seed"] = seed
+                case["load_1min"] = round(os.getloadavg()[0], 1) \
+                    if hasattr(os, "getloadavg") else float("nan")
+                loads.append(case["load_1min"])
+                result.cases.append(case)
+                for key in ("hil_collisions", "deviation_m", "first_goal_deviation_m",
+                            "sensitivity_1mm_m", "hil_latency_p95_ms"):
+                    if key in case:
+                        result.metrics[f"{robot}_s{seed}_{key}"] = float(case[key])
+                        worst[key] = max(worst.get(key, -math.inf), float(case[key]))
+                result.metrics[f"{robot}_s{seed}_hil_success"] = float(case["hil_success"])
+            for key, value in worst.items():  # the worst seed against the budgets
+                result.metrics[f"{robot}_{key}"] = value
     result.notes.append(f"budgets: latency p95 <= {LATENCY_BUDGET_MS} ms, trajectory "
-                        f"deviation <= {DEVIATION_BUDGET_M} m; 1-minute load average "
-                        f"{load:.2f} on {os.cpu_count()} CPUs")
+                        f"deviation <= {DEVIATION_BUDGET_M} m (worst of seeds "
+                        f"{', '.join(map(str, seeds))}); 1-minute load average "
+                        f"{np.median(loads):.1f} (median; {min(loads):.1f}-{max(loads):.1f}) "
+                        f"on {os.cpu_count()} CPUs")
     return result

@@ -286,9 +286,9 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
     loop0 = time.perf_counter()
     if nav.goToPose(PoseStamped.from_pose2d(sc.goal, "map", stack.now)):
         while not nav.isTaskComplete():
-            if stack.now - t0 > sc.timeout_s:
+            if stack.now - t0 > sc.timeout_s:  # stop a goal the navigator has not ended
+                outcome.reason = _timeout_reason(stack, sc)
                 nav.cancelTask()
-                outcome.reason = f"timed out after {sc.timeout_s:.0f} s"
                 break
         result = nav.getTaskResult()
         outcome.status = {TaskResult.SUCCEEDED: "SUCCEEDED", TaskResult.FAILED: "FAILED",
@@ -313,6 +313,15 @@ def run_scenario(sc: Scenario, seed: int = 0, controller: str = "") -> Outcome:
     if sc.expect_success:
         outcome.motion = leg_quality(sc.name, recorder.array()[:, 1:3], plans)
     return outcome
+
+
+def _timeout_reason(stack: Any, sc: Scenario) -> str:
+    """Why the benchmark stops a running goal: its time limit, what the navigator was
+    doing (:meth:`BtNavigator.activity`) and how far from the goal the robot is."""
+    p = stack.sim.sim.pose
+    doing = stack.navigator.activity() or "no navigation goal running"
+    return (f"timed out after {sc.timeout_s:.0f} s: {doing}; "
+            f"{math.hypot(p.x - sc.goal.x, p.y - sc.goal.y):.2f} m from the goal")
 
 
 def _motion_metrics(outcomes: list[Outcome]) -> dict[str, float]:
@@ -349,8 +358,12 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     with ``faults``) instead of the fixed suite; ``executor``/``workers``/``address``
     choose where they run (:mod:`navstack.benchmarks.sweep`); ``report``: a folder for
     the Markdown report and the time-to-goal plot (:mod:`navstack.benchmarks.sweep_report`).
+
+    The executor is opened before the scenarios are drawn (a Ray cluster starts in the
+    background meanwhile); ``sweep_wall_s`` runs from there to the last result with the
+    executor closed, for every executor, and ``draw_s`` is the drawing's part.
     """
-    from navstack.benchmarks.sweep import Job, check_executor, default_workers, timed_jobs
+    from navstack.benchmarks.sweep import Job, check_executor, default_workers, open_executor
 
     name = controller.lower() or "dwb"
     nav2_params_for(name)  # an unknown name fails before the first scenario
@@ -358,10 +371,21 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     if scenarios is not None and scenarios < 1:
         raise ConfigError(f"--scenarios must be >= 1, got {scenarios}", key_path="--scenarios",
                           suggestion="leave it out for the fixed suite")
+    if scenarios is not None:
+        from navstack.benchmarks.chaos import parse_faults
+
+        parse_faults(faults)  # a bad fault name fails before a cluster starts
     result = BenchResult("navigation" if scenarios is None else "navigation-sweep")
-    todo = (_suite(quick) if scenarios is None else chaos_suite(scenarios, seed, faults))
-    jobs = [Job(sc, i, name) for i, sc in enumerate(todo)]
-    outcomes, sweep_wall = timed_jobs(jobs, executor, workers, address, progress)
+    t_sweep = time.perf_counter()
+    ex = open_executor(executor, workers, address)  # a Ray cluster starts in the background
+    try:
+        todo = (_suite(quick) if scenarios is None else chaos_suite(scenarios, seed, faults))
+        draw_s = time.perf_counter() - t_sweep
+        jobs = [Job(sc, i, name) for i, sc in enumerate(todo)]
+        outcomes = ex.run(jobs, progress)
+    finally:
+        ex.close()
+    sweep_wall = time.perf_counter() - t_sweep
     cycles = [c for o in outcomes for c in o.cycle_ms]
     sim_total = sum(o.sim_time_s for o in outcomes)
     loop_total = sum(o.loop_wall_s for o in outcomes)
@@ -385,8 +409,12 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     if name == "dwb":
         result.metrics["dwb_cycle_ms"] = result.metrics["controller_cycle_ms"]
     result.metrics["sweep_wall_s"] = sweep_wall
+    result.metrics["draw_s"] = draw_s
     if executor != "serial":
-        result.metrics["workers"] = float(workers or default_workers())
+        result.metrics["workers"] = ex.timings.get("workers", float(workers or default_workers()))
+    for key in ("cluster_start_s", "cluster_wait_s", "shutdown_s"):
+        if key in ex.timings:
+            result.metrics[key] = ex.timings[key]
     if scenarios is not None:
         from navstack.benchmarks.sweep_report import chaos_metrics
 
@@ -397,7 +425,14 @@ def run(quick: bool, data_dir: Path | None, controller: str = "",
     result.notes.append(f"controller: {name} ({CONTROLLERS[name]})")
     result.notes.append(f"executor: {executor}"
                         + (f" at {address}" if address else "")
-                        + f", wall {sweep_wall:.1f} s")
+                        + f", wall {sweep_wall:.1f} s (drawing the scenarios "
+                        + f"{draw_s:.1f} s included)")
+    if "cluster_start_s" in ex.timings:
+        result.notes.append(
+            f"ray: cluster {'joined' if address else 'started'} in "
+            f"{ex.timings['cluster_start_s']:.1f} s in the background, "
+            f"{ex.timings.get('cluster_wait_s', 0.0):.1f} s of it not hidden behind the "
+            f"drawing; shutdown {ex.timings.get('shutdown_s', 0.0):.1f} s")
     result.notes.append(f"budgets: success_rate >= 0.95, collisions == 0, "
                         f"min_clearance_moving_m >= 0.10, motion_quality_ok == 1, "
                         f"controller_cycle_ms <= {CYCLE_BUDGET_MS[name]:g}, "
@@ -418,8 +453,9 @@ def failure_category(o: Outcome) -> str:
         return ""
     if o.collisions:
         return "collision"
-    if o.status == "TIMEOUT":
-        return "timeout"
+    if o.status == "TIMEOUT":  # "timed out after 150 s: recovering (BackUp), ..."
+        doing = o.reason.split(": ", 1)[1].split(",")[0] if ": " in o.reason else ""
+        return f"timeout: {doing}" if doing else "timeout"
     if not o.scenario.expect_success:
         return f"expected failure ended {o.status or 'without a status'}"
     if not o.reason:
@@ -429,6 +465,23 @@ def failure_category(o: Outcome) -> str:
         if part.endswith(" failed"):
             return f"{o.status.lower()}: {part}: {parts[i + 1]}"[:100]
     return f"{o.status.lower()}: {parts[0]}"[:100]
+
+
+def failure_reason(o: Outcome) -> str:
+    """Why a scenario did not pass, as a sentence ("" when it passed or nothing says):
+    its collisions with the closest approaches, then the navigation reason."""
+    if o.passed:
+        return ""
+    parts = []
+    if o.collisions:
+        closest = [f"static {o.min_static_m:.2f} m"]
+        if o.min_moving_m is not None:
+            closest.append(f"moving {o.min_moving_m:.2f} m")
+        parts.append(f"{o.collisions} collision{'s' if o.collisions != 1 else ''} "
+                     f"(closest approach: {', '.join(closest)})")
+    if o.reason:
+        parts.append(o.reason)
+    return "; ".join(parts)
 
 
 def case_row(o: Outcome) -> dict[str, Any]:

@@ -32,6 +32,7 @@ SUITE_MODULES: dict[str, str] = {
     "gripper": "navstack.benchmarks.gripper",
     "exploration": "navstack.benchmarks.exploration",
     "link": "navstack.benchmarks.link",
+    "split": "navstack.benchmarks.split",
     "safety": "navstack.benchmarks.safety",
     "rover": "navstack.benchmarks.rover",
 }

@@ -25,6 +25,7 @@ import numpy as np
 from navstack.core.errors import TransformError
 from navstack.mapping.map_metrics import MapScore, absolute_trajectory_error, occupancy_iou
 from navstack.mapping.slam import SlamStats
+from navstack.sim.robot import RobotParams
 
 __all__ = ["GoalRun", "SimMappingResult", "run_goal", "run_sim_mapping"]
 
@@ -44,7 +45,7 @@ class SimMappingResult:
 
 
 def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "office",
-                    robot: str = "diff_drive", seed: int = 1,
+                    robot: str | RobotParams = "diff_drive", seed: int = 1,
                     goals: Sequence[str] | None = None, goal_timeout_s: float = 240.0,
                     sample_period: float = 0.5,
                     costmap_overrides: Mapping[str, Any] | None = None) -> SimMappingResult:

@@ -6,15 +6,15 @@ stack, so the executors only differ in where :func:`run_scenario` runs:
 * ``serial`` -- in this process, one after the other;
 * ``local`` -- a :class:`concurrent.futures.ProcessPoolExecutor` of ``workers``
   processes (``spawn``: each worker imports navstack afresh, as a Ray worker does);
-* ``ray`` -- one Ray task per scenario (``num_cpus=1`` each).  Without ``address`` a
-  local Ray cluster of ``workers`` CPUs is started for the run and shut down after it
-  (its workers are forked from this process's environment, so no ``runtime_env`` is
-  set: one would make Ray replace the workers it prestarts at ``ray.init`` with new
-  ones); with ``address`` (``ray://host:10001`` or ``host:6379``, or ``auto``) the tasks
-  go to that running cluster, carrying ``NUMBA_CACHE_DIR``/``MPLBACKEND``/
-  ``NAVSTACK_DATA`` in a ``runtime_env``, and ``workers`` is not used.  Ray is the
+* ``ray`` -- one long-lived Ray actor per CPU, each pulling the next scenario when it
+  is free (:mod:`navstack.benchmarks.sweep_ray`).  Without ``address`` a lean local
+  Ray cluster of ``workers`` CPUs is started for the run and shut down after it; with
+  ``address`` (``ray://host:10001`` or ``host:6379``, or ``auto``) the actors go to that
+  running cluster, one per CPU it has, and ``workers`` is not used.  Ray is the
   optional extra ``navstack[sweeps]``.
 
+:func:`open_executor` makes the executor ready before the jobs are known (a Ray cluster
+starts in the background at once); :func:`run_jobs` is open, run and close in one.
 Results come back in scenario order whatever the completion order, and progress is
 reported per finished scenario.  Because a scenario's outcome depends on nothing but
 its inputs, :meth:`Outcome.result_key` is identical across executors (tested).
@@ -81,22 +81,15 @@ def run_jobs(jobs: Sequence[Job], executor: str = "serial", workers: int | None 
              timings: dict[str, float] | None = None) -> list[Outcome]:
     """Outcomes of ``jobs`` in order, run by ``executor`` (see the module docstring).
 
-    ``timings``, if given, receives ``cluster_start_s``: the wall time [s] of bringing
-    the Ray cluster up or connecting to it (0 for the other executors)."""
-    if timings is not None:
-        timings["cluster_start_s"] = 0.0
-    check_executor(executor, workers, address)
-    progress("scenarios", 0, len(jobs))
-    if executor == "serial" or not jobs:
-        out = []
-        for i, job in enumerate(jobs):
-            out.append(_run_job(job))
-            progress("scenarios", i + 1, len(jobs))
-        return out
-    n = workers or default_workers()
-    if executor == "local":
-        return _run_local(jobs, n, progress)
-    return _run_ray(jobs, n, address, progress, timings)
+    ``timings``, if given, receives the executor's :attr:`Executor.timings`
+    (``cluster_start_s`` 0 for the executors without a cluster)."""
+    ex = open_executor(executor, workers, address)
+    try:
+        return ex.run(jobs, progress)
+    finally:
+        ex.close()
+        if timings is not None:
+            timings.update({"cluster_start_s": 0.0, **ex.timings})
 
 
 def _run_local(jobs: Sequence[Job], workers: int, progress: Progress) -> list[Outcome]:
@@ -115,15 +108,6 @@ def _run_local(jobs: Sequence[Job], workers: int, progress: Progress) -> list[Ou
     return [r for r in results if r is not None]
 
 
-def _import_ray() -> Any:
-    try:
-        import ray
-    except ImportError:
-        raise SweepError("--executor ray needs Ray: pip install 'navstack[sweeps]' "
-                         "(or use --executor local)") from None
-    return ray
-
-
 def check_reachable(address: str, timeout_s: float = 5.0) -> None:
     """Refuse a ``host:port`` / ``ray://host:port`` Ray address nothing listens on
     (Ray itself retries for minutes); ``auto`` and addresses without a port pass."""
@@ -139,70 +123,57 @@ def check_reachable(address: str, timeout_s: float = 5.0) -> None:
                          "for a local cluster") from None
 
 
-def _start_local_ray(ray: Any, workers: int, attempts: int = 2) -> None:
-    """``ray.init`` of a local cluster; Ray gives its raylet a fixed 30 s to register,
-    which a heavily loaded machine can miss, so a failed start is retried once.
+class Executor:
+    """An executor made ready before the jobs are known: :func:`open_executor` starts a
+    Ray cluster in the background at once, so drawing the jobs overlaps its start-up.
 
-    No ``runtime_env``: the raylet and its workers inherit this process's environment
-    (``NUMBA_CACHE_DIR`` included), and a job with a runtime environment cannot use the
-    ``workers`` processes Ray prestarts during ``ray.init`` -- it would start two more
-    and pay their start-up (seconds on a loaded 2-core machine) before the first task.
+    ``timings`` holds what the executor measured (Ray: ``cluster_start_s``,
+    ``cluster_wait_s``, ``shutdown_s``; see :class:`~navstack.benchmarks.sweep_ray.RayPool`).
     """
-    for attempt in range(attempts):
-        try:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                     configure_logging=False)
-            return
-        except Exception:
-            ray.shutdown()
-            if attempt == attempts - 1:
-                raise
+
+    def __init__(self, executor: str, workers: int | None = None,
+                 address: str | None = None) -> None:
+        check_executor(executor, workers, address)
+        self.executor = executor
+        self.workers = workers or default_workers()
+        self.address = address
+        self.timings: dict[str, float] = {}
+        self._pool: Any = None
+        if executor == "ray":
+            from navstack.benchmarks.sweep_ray import RayPool
+
+            self._pool = RayPool(self.workers, address)
+            self.timings = self._pool.timings
+
+    def run(self, jobs: Sequence[Job], progress: Progress = no_progress) -> list[Outcome]:
+        """Outcomes of ``jobs`` in order (see the module docstring)."""
+        progress("scenarios", 0, len(jobs))
+        if self.executor == "serial" or not jobs:
+            out = []
+            for i, job in enumerate(jobs):
+                out.append(_run_job(job))
+                progress("scenarios", i + 1, len(jobs))
+            return out
+        if self.executor == "local":
+            return _run_local(jobs, self.workers, progress)
+        return list(self._pool.run(jobs, progress))
+
+    def close(self) -> None:
+        """Shut down what the executor started (a local Ray cluster)."""
+        if self._pool is not None:
+            self._pool.close()
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
-def _run_ray(jobs: Sequence[Job], workers: int, address: str | None,
-             progress: Progress, timings: dict[str, float] | None = None) -> list[Outcome]:
-    t0 = time.perf_counter()
-    ray = _import_ray()
-    if address is not None:
-        check_reachable(address)
-    started = False
-    if not ray.is_initialized():
-        env = {"env_vars": {k: v for k, v in os.environ.items()
-                            if k in ("NUMBA_CACHE_DIR", "MPLBACKEND", "NAVSTACK_DATA")}}
-        try:
-            if address is None:
-                _start_local_ray(ray, workers)
-            else:
-                ray.init(address=address, log_to_driver=False, configure_logging=False,
-                         runtime_env=env)
-        except Exception as exc:  # Ray raises plain Exception on a start-up timeout
-            where = (f"the Ray cluster at {address}" if address
-                     else f"a local Ray cluster of {workers} CPUs")
-            raise SweepError(f"could not start or reach {where}: {exc} (on an overloaded "
-                             "machine Ray's start-up can time out: retry, or use "
-                             "--executor local)") from None
-        started = True
-    if timings is not None:
-        timings["cluster_start_s"] = time.perf_counter() - t0
-    try:
-        task = ray.remote(num_cpus=1, max_retries=0)(_run_job)
-        refs = [task.remote(job) for job in jobs]
-        index = {ref: i for i, ref in enumerate(refs)}
-        results: list[Outcome | None] = [None] * len(jobs)
-        remaining = list(refs)
-        while remaining:
-            done, remaining = ray.wait(remaining, num_returns=1)
-            for ref in done:
-                try:
-                    results[index[ref]] = ray.get(ref)
-                except ray.exceptions.RayError as exc:
-                    name = jobs[index[ref]].scenario.name
-                    raise SweepError(f"scenario {name} failed on Ray: {exc}") from None
-            progress("scenarios", len(jobs) - len(remaining), len(jobs))
-        return [r for r in results if r is not None]
-    finally:
-        if started:
-            ray.shutdown()
+def open_executor(executor: str, workers: int | None = None,
+                  address: str | None = None) -> Executor:
+    """An :class:`Executor`; bad options raise :class:`ConfigError` before anything starts."""
+    return Executor(executor, workers, address)
 
 
 def timed_jobs(jobs: Sequence[Job], executor: str, workers: int | None = None,

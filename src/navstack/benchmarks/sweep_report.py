@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from navstack.benchmarks.common import BenchResult
-from navstack.benchmarks.navigation import Outcome, failure_category
+from navstack.benchmarks.navigation import Outcome, failure_category, failure_reason
 
 
 def _fault_name(o: Outcome) -> str:
@@ -30,7 +30,7 @@ def chaos_metrics(outcomes: Sequence[Outcome]) -> dict[str, float]:
     out = {f"success_rate_{k}": sum(o.passed for o in v) / len(v)
            for k, v in sorted(by.items())}
     out["failures"] = float(sum(not o.passed for o in outcomes))
-    out["failures_without_reason"] = float(sum(not o.passed and not o.reason
+    out["failures_without_reason"] = float(sum(not o.passed and not failure_reason(o)
                                                for o in outcomes))
     return out
 
@@ -67,7 +67,7 @@ def markdown(result: BenchResult, outcomes: Sequence[Outcome]) -> str:
         for o in outcomes:
             if not o.passed:
                 fault = o.scenario.fault.label() if o.scenario.fault else "nominal"
-                reason = (o.reason or "(no reason given)").replace("|", "/")
+                reason = (failure_reason(o) or "(no reason given)").replace("|", "/")
                 lines.append(f"| {o.scenario.name} | {fault} | {o.status} | {reason} |")
     return "\n".join(lines) + "\n"
 

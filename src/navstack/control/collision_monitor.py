@@ -143,9 +143,10 @@ class SourceParams(Params):
     transform_tolerance: float | None = Field(None, ge=0.0)
     use_global_height: bool = False
     exclude_map_obstacles: float = Field(0.0, ge=0.0, allow_inf_nan=False)
-    """[m] navstack: drop the points within this distance of an occupied cell of the map
-    (``map_topic``, located through ``map_frame_id``), keeping what the map does not
-    explain -- people, carts, new obstacles.  0 keeps every point (Nav2)."""
+    """[m] navstack: drop the points within this distance of an occupied or unknown cell
+    of the map, or off it (``map_topic``, located through ``map_frame_id``), keeping what
+    the map does not explain -- people, carts, new obstacles.  0 keeps every point
+    (Nav2)."""
     map_topic: str = "/map"
     map_frame_id: str = "map"
 

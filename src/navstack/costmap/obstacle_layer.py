@@ -15,6 +15,13 @@ update (``update_bounds``), in Nav2's order:
    before combining into the master with ``combination_method`` (0 overwrite, 1 max,
    2 max without overwriting unknown).
 
+``unmapped_padding`` (navstack, 0 = Nav2): a marked point that the map of the same
+costmap's static layer does not explain -- farther than ``unmapped_distance`` from its
+occupied and unknown cells (:mod:`navstack.costmap.map_distance`) -- is marked as a disc
+of that radius, so the inflation keeps the robot that much further from people and carts
+than from walls and door frames (docs/command_path.md, "Clearance").  Without a static
+layer or before its map arrives, nothing is padded.
+
 The layer grid starts NO_INFORMATION when tracking unknown space, else FREE.
 """
 
@@ -38,6 +45,7 @@ from navstack.costmap.layer import (
     combine,
     register_layer,
 )
+from navstack.costmap.map_distance import MapDistance
 from navstack.costmap.observation_buffer import (
     Observation,
     ObservationBuffer,
@@ -68,8 +76,15 @@ class ObstacleLayerParams(LayerParams):
     instant (Nav2's obstacle layer always does, with a ``tf2_ros::MessageFilter``).  Off:
     a scan whose odometry is not in the TF buffer yet is dropped -- on the in-process bus
     that is a scan stamped at the same instant as an odometry sample still queued, more
-    than half of them in some runs.  Off by default until the single-robot suite is
-    re-measured with it (docs/fleet.md); the packaged fleet turns it on."""
+    than half of them in some runs, all of them for seconds at a time.  Off by default
+    (the parameter is navstack's); the packaged nav2_params.yaml and fleet turn it on
+    (docs/command_path.md, "Clearance")."""
+    unmapped_padding: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+    """[m] navstack: mark a point the static layer's map does not explain as a disc of
+    this radius (module docstring); 0 marks its cell only (Nav2)."""
+    unmapped_distance: float = Field(0.15, ge=0.0, allow_inf_nan=False)
+    """[m] navstack: a point this close to an occupied or unknown cell of the map (or off
+    it) is explained and marked as in Nav2."""
 
     @field_validator("observation_sources")
     @classmethod
@@ -108,6 +123,8 @@ class ObstacleLayer(CostmapLayer):
             self.buffers[src] = ObservationBuffer(src, p)
         self._footprint_world: NDArray[np.float64] | None = None
         self._was_reset = False
+        self._map_distance = MapDistance()
+        self._disc = _disc_offsets(0.0, 1.0)
 
     @classmethod
     def from_mapping(cls, name: str, data: dict[str, Any] | None, *, file: str = "",
@@ -221,6 +238,45 @@ class ObstacleLayer(CostmapLayer):
         mx, my, inside = self.costmap.world_to_map_array(p[keep, :2])
         self.costmap.data[my[inside], mx[inside]] = LETHAL_OBSTACLE
         bounds.touch_points(p[keep][inside, :2])
+        if self.params.unmapped_padding > 0.0:
+            self._pad_unmapped(p[keep, :2], bounds)
+
+    def _pad_unmapped(self, xy: NDArray[np.float64], bounds: Bounds) -> None:
+        """Mark a disc of ``unmapped_padding`` around each point the map does not explain."""
+        static = self._static_layer()
+        if static is None or not len(xy):
+            return
+        grid = static._grid
+        if grid is None:
+            return
+        if self._map_distance.grid is not grid:
+            self._map_distance.update(grid)
+        xy_map = xy if static.map_in_costmap is None else \
+            static.map_in_costmap.inverse().transform_points(xy)
+        far = self._map_distance.at(xy_map) > self.params.unmapped_distance
+        if not far.any():
+            return
+        cm = self.costmap
+        r = self.params.unmapped_padding
+        if self._disc[1] != (r, cm.resolution):
+            self._disc = _disc_offsets(r, cm.resolution)
+        offsets = self._disc[0]
+        mx, my, inside = cm.world_to_map_array(xy[far])
+        cx = (mx[inside, None] + offsets[None, :, 0]).ravel()
+        cy = (my[inside, None] + offsets[None, :, 1]).ravel()
+        ok = (cx >= 0) & (cy >= 0) & (cx < cm.size_x) & (cy < cm.size_y)
+        cm.data[cy[ok], cx[ok]] = LETHAL_OBSTACLE
+        pts = xy[far][inside]
+        for dx, dy in ((-r, -r), (r, r)):
+            bounds.touch_points(pts + np.array([dx, dy]))
+
+    def _static_layer(self) -> Any:
+        from navstack.costmap.static_layer import StaticLayer
+
+        if self.layered is None:
+            return None
+        return next((lay for lay in self.layered.layers if isinstance(lay, StaticLayer)),
+                    None)
 
     def _raytrace(self, obs: Observation, bounds: Bounds) -> None:
         cm = self.costmap
@@ -259,6 +315,17 @@ class ObstacleLayer(CostmapLayer):
         if self.params.footprint_clearing_enabled and self._footprint_world is not None:
             set_polygon_cost(self.costmap, self._footprint_world, FREE_SPACE)
         combine(self, master, window, self.params.combination_method)
+
+
+def _disc_offsets(radius: float, resolution: float
+                  ) -> tuple[NDArray[np.int64], tuple[float, float]]:
+    """Cell offsets ``(K, 2)`` (dx, dy) whose centres lie within ``radius`` of a cell's
+    centre, and the ``(radius, resolution)`` they were made for."""
+    n = int(radius / resolution)
+    d = np.arange(-n, n + 1)
+    dx, dy = np.meshgrid(d, d)
+    inside = (dx * dx + dy * dy) * resolution * resolution <= radius * radius + 1e-12
+    return np.column_stack((dx[inside], dy[inside])).astype(np.int64), (radius, resolution)
 
 
 class VoxelLayerParams(ObstacleLayerParams):

@@ -129,15 +129,25 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
     keep = sizes * res >= min_frontier_size - 1e-9
     keep[0] = False
     too_small = int(n - keep[1:].sum())
+    if not keep.any():
+        return FrontierSet([], [], dist, start, mask, too_small)
     # approach cells: reached traversable cells within frontier_reach of a kept frontier;
     # each takes the label of the frontier cell nearest to it
     kept_labels = np.where(keep[labels], labels, 0)
     reach_cells = max(1, math.ceil(frontier_reach / res - 1e-9))
-    nearest_dist, (ir, ic) = ndimage.distance_transform_edt(kept_labels == 0,
+    # the distance transform only matters within reach_cells of a kept frontier cell: run
+    # it on their bounding box grown by that much (exact; on a warehouse-size map the
+    # whole-grid transform was a third of the exploration's planning time)
+    kr, kc = np.nonzero(kept_labels)
+    r0, r1 = max(0, int(kr.min()) - reach_cells - 1), int(kr.max()) + reach_cells + 2
+    c0, c1 = max(0, int(kc.min()) - reach_cells - 1), int(kc.max()) + reach_cells + 2
+    box = (slice(r0, r1), slice(c0, c1))
+    nearest_dist, (ir, ic) = ndimage.distance_transform_edt(kept_labels[box] == 0,
                                                             return_indices=True)
-    reached = np.isfinite(dist) & view.traversable & (nearest_dist <= reach_cells)
-    ar, ac = np.nonzero(reached)
-    alabel = kept_labels[ir[ar, ac], ic[ar, ac]]
+    reached = np.isfinite(dist[box]) & view.traversable[box] & (nearest_dist <= reach_cells)
+    br, bc = np.nonzero(reached)
+    alabel = kept_labels[box][ir[br, bc], ic[br, bc]]
+    ar, ac = br + r0, bc + c0
     order = np.argsort(alabel, kind="stable")
     ar, ac, alabel = ar[order], ac[order], alabel[order]
     bounds = np.searchsorted(alabel, np.arange(n + 2))

@@ -19,7 +19,10 @@ clear local costmap base->robot   services
 ==================  ============  =====================================================
 
 Both processes run on a wall clock (``transport.<name>.clock.rate`` may accelerate it
-for tests; both must use the same rate) with the process's ``clock.offset``.
+for tests; both must use the same rate) with the process's ``clock.offset``, or in
+lockstep simulated time (:mod:`navstack.runtime.transports.lockstep`).  The nodes of each
+half are built by :mod:`navstack.interfaces.split_nodes`, which also runs both halves in
+one process as the reference of a split run.
 """
 
 from __future__ import annotations
@@ -28,47 +31,31 @@ import json
 import math
 import time
 from collections import deque
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path as FsPath
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from navstack.core.errors import ConfigError
-from navstack.core.msgs import (
-    Header,
-    LaserScan,
-    OccupancyGrid,
-    Odometry,
-    PoseStamped,
-    TFMessage,
-    Twist,
-)
-from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
-from navstack.costmap.footprint import footprint_cost
+from navstack.core.msgs import LaserScan, OccupancyGrid, Odometry, PoseStamped, TFMessage
 from navstack.interfaces.health.checks import clock_contract
+from navstack.interfaces.split_nodes import (
+    MISSION_START_S,
+    BaseNodes,
+    RobotNodes,
+    drive_mission,
+    succeeded,
+)
 from navstack.interfaces.stack import NavStack
 from navstack.navigation import messages as m
-from navstack.navigation.behavior_server import BehaviorServer
-from navstack.navigation.bt_navigator import BtNavigator
-from navstack.navigation.collision_monitor_node import CollisionMonitorNode
-from navstack.navigation.controller_server import ControllerServer
-from navstack.navigation.costmap_node import CostmapNode
-from navstack.navigation.map_server import MapServer
-from navstack.navigation.planner_server import PlannerServer
-from navstack.navigation.velocity_smoother_node import VelocitySmootherNode
 from navstack.navigation.waypoint_follower import load_waypoints
-from navstack.nodes.link_watchdog import LinkWatchdog
-from navstack.nodes.twist_mux import TwistMuxNode
-from navstack.runtime.actions import ActionClient, GoalHandle, GoalStatus
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
 from navstack.runtime.config import load_stack
 from navstack.runtime.node import Runtime
 from navstack.runtime.scheduler import Scheduler
 from navstack.runtime.transports.config import TransportSection
 from navstack.runtime.transports.keys import namespaced
-from navstack.runtime.transports.lockstep import Lockstep
+from navstack.runtime.transports.lockstep import SIM_EPOCH, Lockstep
 from navstack.runtime.transports.remote_calls import (
     ActionProxy,
     proxy_service,
@@ -76,8 +63,6 @@ from navstack.runtime.transports.remote_calls import (
     serve_service,
 )
 from navstack.runtime.transports.zenoh_link import ZenohLink
-from navstack.sim.node import SimulatorNode
-from navstack.sim.simulator import Simulator
 
 #: robot -> base topics: (name, type, QoS)
 ROBOT_TOPICS: tuple[tuple[str, type, QoS], ...] = (
@@ -125,80 +110,64 @@ def transport_for(stack_file: str | FsPath, name: str,
 
 def wall_runtime(t: TransportSection) -> Runtime:
     """The process's runtime: a wall clock, or (``clock.mode: lockstep``) stepped time
-    starting at the shared epoch plus this process's offset."""
+    starting at :data:`~navstack.runtime.transports.lockstep.SIM_EPOCH` plus this
+    process's offset."""
     if t.clock.mode == "lockstep":
-        return Runtime(Scheduler("sim", start_time=Scheduler.EPOCH + t.clock.offset))
+        return Runtime(Scheduler("sim", start_time=SIM_EPOCH + t.clock.offset))
     return Runtime(Scheduler("wall", rate=t.clock.rate, clock_offset=t.clock.offset))
 
 
-@dataclass
-class RobotProcess:
+class _Process:
+    """What both halves set up alike: the runtime on the process clock, the Zenoh link
+    to the one peer and, in lockstep, the time coupling (``role`` of this side)."""
+
+    def __init__(self, stack: NavStack, transport: TransportSection,
+                 role: Literal["master", "follower"]) -> None:
+        self.stack, self.transport = stack, transport
+        self.peer = transport.peers[0]
+        self.runtime = rt = wall_runtime(transport)
+        self.link = ZenohLink(rt, transport, peers=transport.peers)
+        self.lockstep = (Lockstep(self.link, role, self.peer, transport.clock.quantum)
+                         if transport.clock.mode == "lockstep" else None)
+
+    def common_report(self) -> dict[str, Any]:
+        return {"name": self.transport.name, "link": self.link.health(),
+                "latency_s": _latency(self.link), "lockstep": self.lockstep is not None,
+                "late_deliveries": self.runtime.scheduler.late_posts,
+                "clock_rate": self.transport.clock.rate}
+
+    def close(self) -> None:
+        self.link.close()
+
+
+class RobotProcess(_Process):
     """The robot half, built and running (see module docstring)."""
 
-    stack: NavStack
-    transport: TransportSection
-    runtime: Runtime = field(init=False)
-    link: ZenohLink = field(init=False)
-
-    def __post_init__(self) -> None:
-        d, t = self.stack.description, self.transport
-        base = t.peers[0]
-        rt = self.runtime = wall_runtime(t)
+    def __init__(self, stack: NavStack, transport: TransportSection) -> None:
+        super().__init__(stack, transport, "master")
+        rt, link, base = self.runtime, self.link, self.peer
         rt.scheduler.lateness = deque(maxlen=200_000)
-        self.link = link = ZenohLink(rt, t, peers=t.peers)
-        self.lockstep = (Lockstep(link, "master", base, t.clock.quantum)
-                         if t.clock.mode == "lockstep" else None)
-        simulator = Simulator(d.world, d.robot, d.seed, d.spawn)
-        simulator.time = rt.now  # the world starts now on the wall clock, not at 0
-        self.sim = SimulatorNode(rt, simulator, d.physics_rate_hz, True)
-        self.local_costmap = CostmapNode(rt, "local_costmap", d.local_costmap, d.footprint,
-                                         d.nav2_file)
-        self.controller = ControllerServer(rt, d.controller_server, self.local_costmap,
-                                           d.footprint, d.nav2_file)
-        self.behaviors = BehaviorServer(rt, d.behavior_server,
-                                        collision_checker=self._collides)
-        # the command chain as in process, the mux feeding the link watchdog, not the base
-        self.smoother = VelocitySmootherNode(rt, d.velocity_smoother)
-        self.monitor = CollisionMonitorNode(rt, d.body_footprint, d.collision_monitor)
-        self.mux = TwistMuxNode(rt, d.twist_mux.model_copy(
-            update={"cmd_vel_out": "/cmd_vel_guarded"}))
-        self.watchdog = LinkWatchdog(rt, lambda: link.peer_up(base))
+        self.nodes = RobotNodes(rt, stack, lambda: link.peer_up(base))
         for name, typ, qos in ROBOT_TOPICS:
             link.export_topic(name, typ, qos=qos)
         for name, typ, qos in BASE_TOPICS:
             link.import_topic(namespaced("", name), typ, peer=base, qos=qos)
-        self.cmd_log: list[tuple[float, float, float]] = []
-        rt.bus.subscribe("/cmd_vel", Twist, lambda c: self.cmd_log.append(
-            (rt.now, c.linear.x, c.angular.z)), QoS(depth=100))
         rt.bring_up()
-        for action in robot_actions(self.stack):
+        for action in robot_actions(stack):
             serve_action(link, action, base)
         for service in ROBOT_SERVICES:
             serve_service(link, service, base)
-        self.rows: list[tuple[float, float, float, float]] = []
-        rt.scheduler.create_timer(0.1, self._sample, first_at=rt.now)
-
-    def _collides(self, pose_odom: Any) -> bool:
-        cost = footprint_cost(self.local_costmap.costmap,
-                              (pose_odom.x, pose_odom.y, pose_odom.theta),
-                              self.stack.description.body_footprint)
-        return bool(cost == LETHAL_OBSTACLE)
-
-    def _sample(self) -> None:
-        self.sim.advance()
-        p = self.sim.sim.pose
-        self.rows.append((self.runtime.now, p.x, p.y, p.theta))
+        self.nodes.start_sampling()
 
     def run(self, max_s: float, idle_exit_s: float = 5.0) -> dict[str, Any]:
         """Run until the base has come and gone (its liveliness token vanished for
         ``idle_exit_s``) or ``max_s`` process seconds passed; returns the report."""
-        base = self.transport.peers[0]
         sched = self.runtime.scheduler
         seen = [False]
         gone_since = [math.inf]
 
         def finished() -> bool:
-            present = base in self.link.present
+            present = self.peer in self.link.present
             seen[0] = seen[0] or present
             if present or not seen[0]:
                 gone_since[0] = math.inf
@@ -212,57 +181,41 @@ class RobotProcess:
         return self.report()
 
     def report(self) -> dict[str, Any]:
-        base = self.transport.peers[0]
-        return {"role": "robot", "name": self.transport.name,
-                "collisions": self.sim.sim.collisions,
-                "trajectory": self.rows, "cmd_vel": self.cmd_log,
-                "watchdog": {"stops": self.watchdog.stops, "resumes": self.watchdog.resumes,
-                             "blocked": self.watchdog.blocked},
+        n = self.nodes
+        return {"role": "robot", **self.common_report(),
+                "collisions": n.collisions,
+                "trajectory": n.rows, "cmd_vel": n.cmd_log,
+                "scan_to_cmd_s": n.latency.samples,
+                "watchdog": {"stops": n.watchdog.stops, "resumes": n.watchdog.resumes,
+                             "blocked": n.watchdog.blocked},
                 "opened_at": self.link.opened_at,
                 "clock_offset_configured_s": self.transport.clock.offset,
-                "link": self.link.health(), "latency_s": _latency(self.link),
-                "base_offset_s": self.link.offset(base),
+                "base_offset_s": self.link.offset(self.peer),
                 "loop_lateness_s": _percentiles(list(self.runtime.scheduler.lateness or ()))}
 
-    def close(self) -> None:
-        self.link.close()
 
-
-@dataclass
-class BaseProcess:
+class BaseProcess(_Process):
     """The base-station half, built and running (see module docstring)."""
 
-    stack: NavStack
-    transport: TransportSection
-    runtime: Runtime = field(init=False)
-    link: ZenohLink = field(init=False)
-
-    def __post_init__(self) -> None:
-        d, t = self.stack.description, self.transport
-        robot = t.peers[0]
-        rt = self.runtime = wall_runtime(t)
-        self.link = link = ZenohLink(rt, t, peers=t.peers)
-        self.lockstep = (Lockstep(link, "follower", robot, t.clock.quantum)
-                         if t.clock.mode == "lockstep" else None)
-        self.map_server = MapServer(rt, grid=d.map_grid or d.world.to_occupancy_grid())
-        self.global_costmap = CostmapNode(rt, "global_costmap", d.global_costmap, d.footprint,
-                                          d.nav2_file)
-        self.planner = PlannerServer(rt, d.planner_server, self.global_costmap, d.nav2_file,
-                                     footprint=d.footprint)
+    def __init__(self, stack: NavStack, transport: TransportSection) -> None:
+        super().__init__(stack, transport, "follower")
+        rt, link, robot = self.runtime, self.link, self.peer
+        self.nodes = BaseNodes(rt, stack)
         for name, typ, qos in ROBOT_TOPICS:
             link.import_topic(name, typ, peer=robot, qos=qos)
         for name, typ, qos in BASE_TOPICS:
             link.export_topic(name, typ, qos=qos)
         self.proxies = [ActionProxy(link, action, action, robot)
-                        for action in robot_actions(self.stack)]
+                        for action in robot_actions(stack)]
         for service in ROBOT_SERVICES:
             proxy_service(link, service, service, robot)
-        self.navigator = BtNavigator(rt, d.bt_navigator, tree_params=d.navigate_tree)
+        self.nodes.add_navigator()
         rt.bring_up()
 
     def wait_for_robot(self, timeout_s: float = 30.0) -> None:
-        """Run until the robot's clock is estimated and ``map -> base_link`` is known."""
-        robot = self.transport.peers[0]
+        """Run until the robot's clock is estimated and ``map -> base_link`` is known (in
+        lockstep: then on to :data:`MISSION_START_S`, as the in-process reference)."""
+        robot = self.peer
         rt = self.runtime
         ok = rt.scheduler.run_for(timeout_s * self.transport.clock.rate, until=lambda: (
             self.link.ready(robot) and rt.tf.can_transform("map", "base_link")))
@@ -270,52 +223,27 @@ class BaseProcess:
             raise ConfigError(f"robot '{robot}' not reachable within {timeout_s:g} s: no "
                               f"clock answer or no map -> base_link (is `navstack robot` "
                               f"running and transport.connect pointing at it?)")
-        self.global_costmap.update()
+        if self.lockstep is not None:
+            rt.scheduler.run_until(self.lockstep.t0 + MISSION_START_S)
+        self.nodes.global_costmap.update()
 
     def run_mission(self, waypoints: list[tuple[str, PoseStamped]],
                     goal_timeout_s: float = 240.0) -> dict[str, Any]:
         """Send each waypoint as a NavigateToPose goal in turn; returns the report."""
-        rt = self.runtime
-        client: ActionClient[m.NavigateToPoseGoal] = ActionClient(rt.bus, m.NAVIGATE_TO_POSE)
-        goals = []
-        for name, pose in waypoints:
-            t0 = rt.now
-            pose = PoseStamped(Header(rt.now, pose.header.frame_id), pose.pose)
-            handle = client.send_goal(m.NavigateToPoseGoal(pose))
-            done = _done_of(handle)
-            rt.scheduler.run_for(goal_timeout_s, until=done)
-            if not handle.done:
-                handle.cancel()
-                rt.scheduler.run_for(2.0, until=done)
-            result = handle.result
-            status = handle.status.value if handle.done else "TIMEOUT"
-            goals.append({"name": name, "status": status, "time_s": round(rt.now - t0, 3),
-                          "reason": result.error_msg if result is not None else ""})
-            print(f"[base] {name}: {status} in {rt.now - t0:.1f} s"
-                  + (f" ({result.error_msg})" if result is not None and result.error_msg
-                     else ""), flush=True)
-        return self.report(goals)
+        return self.report(drive_mission(self.runtime, waypoints, goal_timeout_s))
 
     def report(self, goals: list[dict[str, Any]]) -> dict[str, Any]:
-        robot = self.transport.peers[0]
+        robot = self.peer
         goal_rtt = sorted(x for p in self.proxies for x in p.goal_latency)
         contract = clock_contract(robot, self.link.health()[robot],
                                   self.transport.clock.tolerance)
-        return {"role": "base", "name": self.transport.name, "goals": goals,
-                "succeeded": sum(g["status"] == GoalStatus.SUCCEEDED.value for g in goals),
-                "link": self.link.health(), "latency_s": _latency(self.link),
+        return {"role": "base", **self.common_report(), "goals": goals,
+                "succeeded": succeeded(goals),
                 "goal_round_trip_s": _percentiles(goal_rtt),
                 "actions": {p.remote: p.outcomes for p in self.proxies},
                 "robot_offset_s": self.link.offset(robot),
                 "clock_contract": {"name": contract.name, "ok": contract.ok,
                                    "detail": contract.detail, "fix": contract.fix}}
-
-    def close(self) -> None:
-        self.link.close()
-
-
-def _done_of(handle: GoalHandle[Any]) -> Callable[[], bool]:
-    return lambda: handle.done
 
 
 def _percentiles(values: list[float]) -> dict[str, float]:

@@ -25,10 +25,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Protocol
 
+import numpy as np
+
 from navstack.core.errors import LifecycleError
 from navstack.core.msgs import OccupancyGrid, Pose2D
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
+from navstack.costmap.footprint_penetration import penetration_depth
 from navstack.interfaces.stack_description import (
     Localization,
     LocalizationName,
@@ -238,7 +241,8 @@ class NavStack:
                                 footprint=d.footprint)
         controller = ControllerServer(rt, d.controller_server, local_costmap, d.footprint,
                                       d.nav2_file)
-        behaviors = BehaviorServer(rt, d.behavior_server, collision_checker=self.local_collision)
+        behaviors = BehaviorServer(rt, d.behavior_server, collision_checker=self.local_collision,
+                                   penetration=self.local_penetration)
         return planner, controller, behaviors
 
     def _start_command_chain(self, rt: Runtime
@@ -349,6 +353,12 @@ class NavStack:
         cost = footprint_cost(self.local_costmap.costmap,
                               (pose_odom.x, pose_odom.y, pose_odom.theta), self.body_footprint)
         return cost == LETHAL_OBSTACLE
+
+    def local_penetration(self, pose_odom: Pose2D) -> float:
+        """How deep [m] lethal cells of the local costmap reach into the robot body at
+        ``pose_odom`` (the behaviors' escape rule, costmap/footprint_penetration.py)."""
+        return penetration_depth(self.local_costmap.costmap, pose_odom,
+                                 np.asarray(self.body_footprint.polygon, dtype=np.float64))
 
     @property
     def now(self) -> float:

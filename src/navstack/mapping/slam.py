@@ -625,7 +625,9 @@ class SlamMapper:
                 if keep is not None and not keep.all() and keep.mean() >= 0.9:
                     ref, nrm, msk = ref[keep], nrm[keep], msk[keep]
                     grid = self._same_lattice(local, ref)
-            match = self.match_points(ref, nrm, msk, node.points, guess, window=window,
+            points = node.points if restarting or missing else self._covered(
+                node.points, guess, reference)
+            match = self.match_points(ref, nrm, msk, points, guess, window=window,
                                       grid=grid)
         failed = match is None or match.response < p.link_match_minimum_response_fine
         typical = self.typical_response()
@@ -786,6 +788,34 @@ class SlamMapper:
             return
         for i in ids:
             self._poses[i] = self.graph.pose(i)
+
+    def _covered(self, points: FloatArray, guess: FloatArray,
+                 reference_ids: Sequence[int]) -> FloatArray:
+        """The scan points (base frame) the reference scans could have seen: within
+        ``usable range - link_match_coverage_margin`` of at least one reference scan's
+        laser, placed at ``guess``.
+
+        With a short-range laser, walls that run on out of range (a corridor longer than
+        the LDS's 3.5 m) end in every scan at the range limit, not at a feature.  The new
+        scan, taken ``minimum_travel_distance`` further on, reaches that much further
+        along them; its leading points fall where no reference scan looked, score
+        nothing, and the correlative search prefers the shift that lays them back over
+        known wall -- the pose is pulled back towards the previous scans by a few cells
+        at every node (office corridor, TurtleBot3: 4-8 cm per node, 0.17 m in 5 m).
+        Leaving those points out of the match removes the pull; points the references
+        did see keep constraining every direction.  ``0`` keeps every point (Karto)."""
+        margin = self.params.link_match_coverage_margin
+        if margin <= 0.0 or len(reference_ids) == 0 or points.shape[0] == 0:
+            return points
+        usable = min(self.laser.range_max, self.params.max_laser_range) - margin
+        poses = self._poses
+        c, s = math.cos(guess[2]), math.sin(guess[2])
+        world = points @ np.array([[c, s], [-s, c]]) + guess[:2]
+        near = np.zeros(points.shape[0], dtype=bool)
+        for i in reference_ids:
+            origin = se2_compose(poses[i], self.laser.mount)
+            near |= np.hypot(world[:, 0] - origin[0], world[:, 1] - origin[1]) <= usable
+        return points[near]
 
     def _trim_running(self) -> None:
         p = self.params

@@ -150,6 +150,11 @@ class SlamParams(Params):
     # (+ 2% of their range) are left out of its scan match -- people walking, see
     # mapping/free_space.py; 0 = off (slam_toolbox's behaviour)
     dynamic_point_margin: float = Field(0.2, ge=0.0)
+    # navstack: match a new scan only with its points within (usable range - this) of a
+    # reference scan's laser, i.e. where the references could have seen something; 0 =
+    # every point (Karto).  Removes the pull back along walls that run out of range (a
+    # corridor longer than a 3.5 m LDS), see slam.py
+    link_match_coverage_margin: float = Field(0.0, ge=0.0)
 
     # --- solver (accepted for slam_toolbox files; the back end is gtsam) ---
     solver_plugin: str = "solver_plugins::CeresSolver"

@@ -279,7 +279,7 @@ class Escape(MissionBehaviour):
 
     def __init__(self, ctx: MissionContext, circumscribed_radius: float = 0.3,
                  map_topic: str = "/map", margin: float = 0.05, attempts: int = 3,
-                 name: str = "Escape") -> None:
+                 name: str = "Escape", max_move: float = 1.0, required: bool = True) -> None:
         super().__init__(ctx, name)
         self.radius = circumscribed_radius
         self.map_topic = map_topic
@@ -289,12 +289,18 @@ class Escape(MissionBehaviour):
         self.tries = 0
         self.moved_at = -math.inf
         self.flip = False  # the last move was refused: try the other direction
+        self.refused: str | None = None  # the action of the last refused move
+        self.flip_refused_forward = False
+        self.max_move = max_move
+        self.required = required  # False: a robot that cannot get clear is logged, not failed
 
     def initialise(self) -> None:
         self.handle = None
         self.tries = 0
         self.moved_at = -math.inf
         self.flip = False
+        self.refused = None
+        self.flip_refused_forward = False
 
     def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D) -> tuple[float, float]:
         """Distance [m] and bearing (robot frame) of the nearest occupied map cell."""
@@ -316,6 +322,42 @@ class Escape(MissionBehaviour):
         bearing = math.atan2(ys[i] - pose.y, xs[i] - pose.x) - pose.theta
         return float(d[i]), math.atan2(math.sin(bearing), math.cos(bearing))
 
+    def _choose_move(self, grid: OccupancyGrid, pose: Pose2D, dist: float,
+                     bearing: float) -> tuple[bool, float]:
+        """``(forward, distance)`` of the straight move that escapes: the shortest one,
+        forward or back, whose end pose is ``radius`` clear of the map's obstacles and
+        that never comes closer to one than the robot is now (a box beside the robot:
+        drive along it until past its end); failing that, the one whose end is
+        clearest.  A direction the behaviour server refused is tried last."""
+        c, s = math.cos(pose.theta), math.sin(pose.theta)
+        best: tuple[float, bool, float] | None = None  # (clearance, forward, distance)
+        found: tuple[float, bool, float] | None = None  # (distance, forward, distance)
+        for forward in (False, True):
+            if forward == self.flip_refused_forward and self.refused is not None:
+                continue
+            sign = 1.0 if forward else -1.0
+            for k in range(1, round(self.max_move / 0.05) + 1):
+                d = 0.05 * k
+                here = Pose2D(pose.x + sign * d * c, pose.y + sign * d * s, pose.theta)
+                clear, _ = self._nearest_obstacle(grid, here)
+                if clear < dist - 0.02:
+                    break  # this way runs into something
+                if d >= 0.1 and (best is None or clear > best[0] + 1e-9):
+                    best = (clear, forward, d)
+                if clear >= self.radius:
+                    if found is None or d < found[0]:
+                        found = (d, forward, d)
+                    break
+        if found is not None:
+            return found[1], found[2] + self.margin
+        if best is not None and best[0] > dist + 0.02:
+            return best[1], best[2] + self.margin
+        # nothing measurably better on the map: away from the nearest obstacle, then the
+        # other way once a move was refused
+        along = abs(math.cos(bearing))
+        distance = max(0.1, (self.radius - dist) / max(along, 0.5) + self.margin)
+        return (abs(bearing) >= math.pi / 2) != self.flip, distance
+
     def update(self) -> Status:
         ctx = self.ctx
         h = self.handle
@@ -328,6 +370,10 @@ class Escape(MissionBehaviour):
                 ctx.log(f"{self.name}: {h.action} ended {h.result.status.value}: "
                         f"{h.result.error_msg}")
                 self.flip = not self.flip  # that way is blocked: the other way next
+                self.refused = h.action
+                self.flip_refused_forward = h.action.endswith("drive_on_heading")
+            else:
+                self.refused = None  # it moved: both ways are open again
         grid = ctx.latest(self.map_topic, OccupancyGrid, LATCHED)
         pose = ctx.robot_pose()
         if grid is None or pose is None:
@@ -338,12 +384,15 @@ class Escape(MissionBehaviour):
         if dist >= self.radius:
             return Status.SUCCESS
         if self.tries >= self.attempts:
-            return self.failed(f"still {dist:.2f} m from an obstacle after {self.tries} "
-                               f"attempts to back away (needs {self.radius:.2f} m to turn)")
+            reason = (f"still {dist:.2f} m from an obstacle after {self.tries} attempts to "
+                      f"back away (needs {self.radius:.2f} m to turn)")
+            if not self.required:  # e.g. in a gap narrower than two turning radii
+                ctx.log(f"{self.name}: {reason}; going on")
+                return Status.SUCCESS
+            return self.failed(reason)
         self.tries += 1
-        along = abs(math.cos(bearing))
-        distance = max(0.1, (self.radius - dist) / max(along, 0.5) + self.margin)
-        if (abs(bearing) < math.pi / 2) != self.flip:
+        forward, distance = self._choose_move(grid, pose, dist, bearing)
+        if not forward:
             goal: Any = m.BackUpGoal(distance, 0.1, 10.0)
             client: Any = ctx.backup
             how = "backing up"
@@ -391,7 +440,9 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
              Escape(ctx, circumscribed_radius),
              explore]
     if p.return_to_init:
-        steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome"),
+        # best effort: where no spot is a turning radius clear (a 0.6 m gap) the way home
+        # may still be open -- ReturnHome decides
+        steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome", required=False),
                   ReturnHome(ctx, tolerance=home_tolerance)]
     root = Sequence("explore", memory=True, children=steps)
 

@@ -16,7 +16,12 @@ in steps of ``1 / cycle_frequency`` for ``simulate_ahead_time`` seconds (stoppin
 the behavior would end) and each projected pose is passed to ``collision_checker``; a
 hit stops the robot and fails with ``COLLISION_AHEAD`` naming the pose.  The current
 pose itself is not checked, so a robot touching an obstacle can still back away from
-it.  Whatever the outcome, a zero Twist is published when a behavior ends.
+it.  navstack: with a ``penetration(pose)`` function (the stack wires
+:func:`navstack.costmap.footprint_penetration.penetration_depth` on the local costmap),
+a robot whose footprint already reaches into lethal cells -- SLAM drift moved a wall, a
+cell bloats an obstacle edge -- may make any motion that goes no deeper than it is
+(``escape_penetration_tolerance``): it drives along or away from the obstacle instead
+of refusing every command.  Whatever the outcome, a zero Twist is published when a behavior ends.
 
 Deviation: ``cycle_frequency`` defaults to 20 Hz (Nav2: 10 Hz), the controller rate,
 which halves the overshoot of the last cycle.  A new goal to any behavior preempts the
@@ -82,6 +87,9 @@ class BehaviorServerParams(Params):
     cmd_vel_topic: str = "/cmd_vel"
     behavior_plugins: list[str] = Field(default_factory=lambda: list(DEFAULT_BEHAVIOR_TYPES))
     behaviors: dict[str, BehaviorSpec] = Field(default_factory=dict)
+    # navstack: a motion starting with the footprint in lethal cells is refused only when
+    # it reaches deeper than this beyond the start's depth [m] (module docstring)
+    escape_penetration_tolerance: float = Field(0.005, ge=0.0)
 
     @field_validator("behavior_plugins")
     @classmethod
@@ -154,10 +162,12 @@ class BehaviorServer(Node):
 
     def __init__(self, runtime: Runtime, params: BehaviorServerParams | None = None,
                  collision_checker: CollisionChecker | None = None,
-                 name: str = "behavior_server") -> None:
+                 name: str = "behavior_server",
+                 penetration: Callable[[Pose2D], float] | None = None) -> None:
         super().__init__(name, runtime)
         self.params = params or BehaviorServerParams()
         self.collision_checker = collision_checker
+        self.penetration = penetration
         self.behaviors: dict[str, Behavior[Any]] = {}
         """The behavior plugins by name; each serves the action ``/<name>``."""
         for bname in self.params.behavior_plugins:
@@ -292,7 +302,15 @@ class BehaviorServer(Node):
                          ) -> NDArray[np.float64] | None:
         if self.collision_checker is None:
             return None
-        for row in b.projection(pose, twist, self._steps):
+        rows = b.projection(pose, twist, self._steps)
+        if self.penetration is not None and self.collision_checker(pose):
+            # already overlapping lethal cells: allow what goes no deeper (escape rule)
+            limit = self.penetration(pose) + self.params.escape_penetration_tolerance
+            for row in rows:
+                if self.penetration(Pose2D(float(row[0]), float(row[1]), float(row[2]))) > limit:
+                    return row
+            return None
+        for row in rows:
             if self.collision_checker(Pose2D(float(row[0]), float(row[1]), float(row[2]))):
                 return row
         return None

@@ -25,6 +25,16 @@ pause -- and the feedback carries ``paused_reason``.  Holds are kept per source;
 the last one is released the tree starts again from its root (a fresh plan from where
 the robot is) under the same goal.
 
+Continuing from a reached goal (navstack addition, off by default): with the tree
+parameter ``continue_from_goal_radius`` > 0, a NavigateToPose goal accepted while the
+robot stands within that distance of the goal it has just reached plans its first path
+from that goal pose instead of from the robot's pose (``ComputePathToPose``'s ``start``;
+Nav2's ``ComputePathThroughPoses`` starts leg k at pose k-1 the same way).  A waypoint
+route then plans waypoint to waypoint: where exactly inside the goal tolerance the
+robot stopped -- a few centimetres that a search on a grid turns into a different
+route (docs/drivers.md, "Route stability") -- no longer decides the next leg.  Replans
+(an invalid path, a changed goal, a recovery) start from the robot as usual.
+
 Parameter deviation: ``bt_loop_duration`` defaults to 0.05 s (20 Hz, the controller's
 rate) instead of Nav2's 0.01 s; each tick is an event of the simulated clock and 100 Hz
 only multiplies the work without changing what the tree decides.
@@ -51,6 +61,7 @@ from navstack.core.params import Params
 from navstack.navigation import messages as m
 from navstack.navigation.bt_nodes import (
     FAILURES_KEY,
+    PLAN_START_KEY,
     RECOVERIES_KEY,
     FailureRecord,
     PathCache,
@@ -165,7 +176,7 @@ class BtNavigator(Node):
                                p.goals_blackboard_id, p.path_blackboard_id)
         self._board = py_trees.blackboard.Client(name=name, namespace=self.namespace)
         for key in (self.ctx.goal_key, self.ctx.goals_key, self.ctx.path_key, FAILURES_KEY,
-                    RECOVERIES_KEY):
+                    RECOVERIES_KEY, PLAN_START_KEY):
             self._board.register_key(key, Access.WRITE)
         self._board_released = False
         self._servers: list[ActionServer[Any]] = []
@@ -175,6 +186,8 @@ class BtNavigator(Node):
         self.holds: dict[str, str] = {}
         """Active holds: source -> reason (see module docstring)."""
         self.paused_at: float | None = None
+        self._reached: PoseStamped | None = None
+        """The goal the last run succeeded at (cleared when the next goal is accepted)."""
 
     # --- lifecycle -------------------------------------------------------------------
     def on_configure(self) -> None:
@@ -266,11 +279,27 @@ class BtNavigator(Node):
             self._finish()
             old.canceled(old_result, reason="preempted by a new goal")
         self._write_goal(kind, goal_poses)
+        start = self._continue_from() if kind == "navigate_to_pose" else None
+        if start is not None:
+            self._board.set(PLAN_START_KEY, start)
         root = self.trees[tree_name](self.ctx, self.tree_params)
         self._run = _Run(kind, tree_name, root, handle, self.now)
         self._history.clear()
         handle.execute()
         return True
+
+    def _continue_from(self) -> PoseStamped | None:
+        """The goal just reached, if the robot is still within ``continue_from_goal_radius``
+        of it (module docstring); consumed: only the goal right after it continues."""
+        reached, self._reached = self._reached, None
+        radius = self.tree_params.continue_from_goal_radius
+        if reached is None or radius <= 0.0:
+            return None
+        pose = self.robot_pose()
+        if pose is None:
+            return None
+        p = reached.pose.position
+        return reached if math.hypot(p.x - pose.x, p.y - pose.y) <= radius else None
 
     def _to_global(self, ps: PoseStamped) -> PoseStamped:
         frame, target = ps.header.frame_id, self.params.global_frame
@@ -300,6 +329,7 @@ class BtNavigator(Node):
             board.set(ctx.goals_key, poses)
             board.unset(ctx.goal_key)
         board.unset(ctx.path_key)
+        board.unset(PLAN_START_KEY)
         board.set(FAILURES_KEY, ())
         board.set(RECOVERIES_KEY, 0)
 
@@ -358,6 +388,8 @@ class BtNavigator(Node):
         status = run.root.status
         if status == Status.SUCCESS:
             result = self._result(run)
+            goals = self._get(self.ctx.goals_key) or (self._get(self.ctx.goal_key),)
+            self._reached = goals[-1] if isinstance(goals[-1], PoseStamped) else None
             self._finish()
             run.handle.succeed(result)
         elif status == Status.FAILURE:
@@ -386,6 +418,32 @@ class BtNavigator(Node):
         run.handle.publish_feedback(m.NavigateFeedback(
             pose, now - run.start, eta, int(self._get(RECOVERIES_KEY, 0)), dist, remaining,
             self.paused_reason))
+
+    def activity(self) -> str:
+        """What the running goal is doing, in a few words ("" with no goal; navstack
+        addition, for whoever must stop a goal that has not ended, e.g. a benchmark's
+        time limit): "recovering (BackUp), 6 of 6 recoveries used; last failure:
+        FollowPath failed: ...", "navigating (FollowPath), 0 of 6 recoveries used",
+        or "paused: <hold reason>"."""
+        run = self._run
+        if run is None:
+            return ""
+        if self.holds:
+            return f"paused: {self.paused_reason}"
+        tip = run.root.tip()
+        chain: list[str] = []
+        node = tip
+        while node is not None:
+            chain.append(node.name)
+            node = node.parent
+        doing = "recovering" if "RecoveryBranch" in chain else "navigating"
+        text = f"{doing} ({tip.name if tip is not None else 'starting'}), " \
+               f"{int(self._get(RECOVERIES_KEY, 0))} of " \
+               f"{self.tree_params.number_of_retries} recoveries used"
+        failures: tuple[FailureRecord, ...] = self._get(FAILURES_KEY, ())
+        if failures:
+            text += f"; last failure: {failures[-1].describe()}"
+        return text
 
     def failure_reason(self) -> tuple[int, str]:
         """Navigator error code and a sentence for the current goal's failure records.

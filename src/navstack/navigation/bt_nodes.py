@@ -42,6 +42,10 @@ FAILURES_KEY = "failures"
 """Blackboard key: tuple of :class:`FailureRecord`, oldest first (last 32 kept)."""
 RECOVERIES_KEY = "number_recoveries"
 """Blackboard key (Nav2 name): recovery-branch entries since the goal was (re)set."""
+PLAN_START_KEY = "plan_start"
+"""Blackboard key (navstack): a :class:`PoseStamped` the next ``ComputePathToPose`` plans
+from instead of the robot's pose, once (the navigator sets it when a goal continues from
+the goal just reached: ``NavigateTreeParams.continue_from_goal_radius``)."""
 _MAX_FAILURES = 32
 
 
@@ -323,7 +327,7 @@ class ComputePathToPose(ActionNode):
                  name: str = "ComputePathToPose", error_prefix: str = "compute_path",
                  reads: Iterable[str] = ()) -> None:
         super().__init__(name, ctx, m.COMPUTE_PATH_TO_POSE, error_prefix,
-                         reads=(ctx.goal_key, *reads), writes=(ctx.path_key,))
+                         reads=(ctx.goal_key, *reads), writes=(ctx.path_key, PLAN_START_KEY))
         self.planner_id = planner_id
 
     def make_goal(self) -> Any:
@@ -331,7 +335,11 @@ class ComputePathToPose(ActionNode):
         if not isinstance(goal, PoseStamped):
             raise NodeInputError(self.unknown_code,
                                  f"no goal pose on the blackboard key '{self.ctx.goal_key}'")
-        return m.ComputePathToPoseGoal(goal=goal, planner_id=self.planner_id)
+        # Nav2's ``start`` input port: the goal just reached, for the first plan of a
+        # goal that continues from it (``PLAN_START_KEY``); the robot's pose otherwise
+        start = self.board.get(PLAN_START_KEY)
+        return m.ComputePathToPoseGoal(goal=goal, planner_id=self.planner_id,
+                                       start=start if isinstance(start, PoseStamped) else None)
 
     def leg_path(self, result: ActionResult) -> Path | None:
         path = _result_path(result.result)
@@ -344,10 +352,12 @@ class ComputePathToPose(ActionNode):
                              f"the planner succeeded but returned no poses "
                              f"(result {type(result.result).__name__})")
         self.board.set(self.ctx.path_key, path)
+        self.board.unset(PLAN_START_KEY)  # replans start from the robot, as in Nav2
         return Status.SUCCESS
 
     def fail(self, code: int, reason: str) -> Status:
         self.board.unset(self.ctx.path_key)
+        self.board.unset(PLAN_START_KEY)
         return super().fail(code, reason)
 
 

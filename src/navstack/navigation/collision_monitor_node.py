@@ -10,11 +10,14 @@ the command's time (``base_shift_correction``: the robot's motion since the sens
 the data is accounted for), else into the base frame with the latest transform.
 
 A source with ``exclude_map_obstacles`` (navstack) drops, when its data arrives, the points
-within that distance of an occupied cell of the map (``map_topic``, through the
-``map_frame_id`` -> sensor transform at the data's stamp): what is left is what the map
-does not explain (people, carts, a dropped box).  A polygon that checks only such a source
-(``sources_names``) keeps its distance from those and ignores door frames.  Until the map
-and the transform are known every point is kept.
+within that distance of an occupied or unknown cell of the map, or outside it
+(``map_topic``, through the ``map_frame_id`` -> sensor transform at the data's stamp):
+what is left lies in space the map knows to be free -- people, carts, a dropped box.
+Unknown space explains a point because a map being built (SLAM) has not yet published
+the walls the robot is discovering: counting them as unexplained kept the robot away from
+every new wall and changed the mapping run (docs/command_path.md, "Clearance").  A polygon
+that checks only such a source (``sources_names``) keeps its distance from those and
+ignores door frames.  Until the map and the transform are known every point is kept.
 
 A source whose newest data is older than its ``source_timeout`` (or that never sent any)
 stops the robot while it is stale.  After a stop the output is zero for
@@ -31,7 +34,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from navstack.control.collision_monitor import (
     ActionType,
@@ -51,6 +53,7 @@ from navstack.core.msgs import (
     Twist2D,
 )
 from navstack.core.polygon import Footprint
+from navstack.costmap.map_distance import MapDistance
 from navstack.runtime.bus import LATCHED, SENSOR_DATA, QoS
 from navstack.runtime.node import Node, Runtime
 
@@ -80,7 +83,7 @@ class CollisionMonitorNode(Node):
         """How many commands each polygon (or stale source) changed."""
         self.slowed = 0
         self._stop_since: float | None = None
-        self._maps: dict[str, _MapDistance] = {}  # map topic -> distance to occupied
+        self._maps: dict[str, MapDistance] = {}  # map topic -> distance to occupied
 
     def on_configure(self) -> None:
         p = self.params
@@ -95,7 +98,7 @@ class CollisionMonitorNode(Node):
             kind = {"scan": LaserScan, "pointcloud": PointCloud, "range": Range}[src.type]
             self.create_subscription(src.topic, kind, cb, SENSOR_DATA)
             if src.exclude_map_obstacles > 0.0 and src.map_topic not in self._maps:
-                self._maps[src.map_topic] = _MapDistance()
+                self._maps[src.map_topic] = MapDistance()
                 self.create_subscription(src.map_topic, OccupancyGrid,
                                          self._maps[src.map_topic].update, LATCHED)
         self.create_subscription(p.cmd_vel_in_topic, Twist, self._on_cmd, QoS(depth=1))
@@ -195,36 +198,6 @@ class CollisionMonitorNode(Node):
         """For dashboards: the current action, its polygon and counts per polygon."""
         return {"action": self.last.action.name.lower(), "polygon": self.last.polygon,
                 "actions": dict(self.actions), "slowed": self.slowed}
-
-
-class _MapDistance:
-    """Distance [m] from every cell of the latest map to its nearest occupied cell
-    (occupancy >= 65, map_server's occupied_thresh); outside the map: infinite."""
-
-    def __init__(self) -> None:
-        self.distance: FloatArray | None = None
-        self.grid: OccupancyGrid | None = None
-
-    def update(self, grid: OccupancyGrid) -> None:
-        occupied = np.asarray(grid.data) >= 65
-        self.grid = grid
-        self.distance = (np.asarray(ndimage.distance_transform_edt(~occupied),
-                                    dtype=np.float64) * grid.info.resolution
-                         if occupied.any() else np.full(occupied.shape, np.inf))
-
-    def at(self, xy_map: FloatArray) -> FloatArray:
-        assert self.grid is not None and self.distance is not None
-        info = self.grid.info
-        o = info.origin.to_pose2d()
-        c, s = math.cos(o.theta), math.sin(o.theta)
-        dx, dy = xy_map[:, 0] - o.x, xy_map[:, 1] - o.y
-        col = np.floor((c * dx + s * dy) / info.resolution).astype(np.int64)
-        row = np.floor((-s * dx + c * dy) / info.resolution).astype(np.int64)
-        h, w = self.distance.shape
-        inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
-        out = np.full(len(xy_map), np.inf)
-        out[inside] = self.distance[row[inside], col[inside]]
-        return out
 
 
 def _range_points(msg: Range, step: float) -> FloatArray:

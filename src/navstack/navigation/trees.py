@@ -101,6 +101,10 @@ class NavigateTreeParams(Params):
     progress_epsilon: float = Field(0.05, gt=0.0)
     progress_dwell_time: float = Field(10.0, gt=0.0)
     passed_goal_radius: float = Field(0.5, ge=0.0)
+    continue_from_goal_radius: float = Field(0.0, ge=0.0)
+    """navstack: > 0 plans a NavigateToPose goal's first path from the goal just reached
+    when the robot is within this distance of it (:mod:`.bt_navigator`); 0 (default):
+    from the robot, as Nav2."""
     planner_id: str = "GridBased"
     controller_id: str = "FollowPath"
     goal_checker_id: str = ""

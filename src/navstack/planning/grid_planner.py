@@ -34,7 +34,7 @@ from navstack.core.errors import (
 from navstack.core.interfaces import CancelFn, GlobalPlanner
 from navstack.core.msgs import Path, Pose2D
 from navstack.core.params import Params
-from navstack.costmap.costmap_2d import NO_INFORMATION, Costmap2D
+from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION, Costmap2D
 from navstack.planning.budget import PlanningBudget
 from navstack.planning.grid_search import FOUND, RUNNING, GridSearchWorkspace
 from navstack.planning.path_utils import cells_to_world, make_path
@@ -64,6 +64,9 @@ class GridPlannerBase(GlobalPlanner):
     sim_expansion_rate: float = 5_000_000.0
     """Expansions per second of ``max_planning_time`` on simulated time."""
     chunk: int = 5000
+    clear_start_cell: bool = False
+    """A start cell in the inscribed band is planned from as free (Nav2 NavFn's
+    ``clearRobotCell``); a lethal or forbidden start still raises ``StartOccupied``."""
 
     @abstractmethod
     def cost_model(self, data: NDArray[np.uint8]) -> tuple[NDArray[np.bool_],
@@ -105,6 +108,11 @@ class GridPlannerBase(GlobalPlanner):
         s_cell = self._cell("start", start, costmap)
         g_cell = self._cell("goal", goal, costmap)
         free, weight = self.cost_model(costmap.data)
+        if (self.clear_start_cell and not free[s_cell[1], s_cell[0]]
+                and int(costmap.data[s_cell[1], s_cell[0]]) == INSCRIBED_INFLATED_OBSTACLE):
+            # Nav2 NavFn clearRobotCell: the robot stands there, so its cell is free
+            free[s_cell[1], s_cell[0]] = True
+            weight[s_cell[1], s_cell[0]] = self.cost_model(np.zeros((1, 1), np.uint8))[1][0, 0]
         if not free[s_cell[1], s_cell[0]]:
             cost = int(costmap.data[s_cell[1], s_cell[0]])
             raise StartOccupied(self._blocked_reason("start", start, cost)

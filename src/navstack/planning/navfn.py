@@ -39,7 +39,8 @@ from navstack.costmap.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMAT
 from navstack.planning.grid_planner import GridPlannerBase
 from navstack.planning.grid_search import GridSearchWorkspace
 from navstack.planning.navfn_potential import navfn_path_cells
-from navstack.planning.path_utils import cells_to_world, smooth_path, thin_points
+from navstack.planning.path_utils import cells_to_world, smooth_path, straighten, thin_points
+from navstack.planning.theta_star import interpolate_polyline
 
 COST_NEUTRAL = 50
 """NavFn cost of a free cell (``COST_NEUTRAL``)."""
@@ -76,6 +77,13 @@ class NavfnParams(Params):
     """navstack: thin the descent's points and smooth them with Nav2's SimpleSmoother,
     never into costlier cells (what Nav2's smoother server would do to every plan); false
     returns NavFn's raw descent."""
+    straighten_deviation: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+    """[m] navstack, with ``smooth_path``: then replace every stretch of the smoothed path
+    that a straight chord within this distance of it can replace, never through a cell
+    costlier than the chord's ends, and drop the small kinks that turn against both
+    corners around them (:func:`~navstack.planning.path_utils.straighten`; the packaged
+    nav2_params.yaml sets 0.15, which removes the walker-detour S-bends:
+    docs/command_path.md, "Motion quality"); 0 keeps the smoothed path (Nav2)."""
 
 
 @register_planner("Navfn", nav2="nav2_navfn_planner::NavfnPlanner")
@@ -92,6 +100,7 @@ class NavfnPlanner(GridPlannerBase):
         self.allow_unknown = self.params.allow_unknown
         self.use_final_approach_orientation = self.params.use_final_approach_orientation
         self.h_scale = float(COST_NEUTRAL) if self.params.use_astar else 0.0
+        self.clear_start_cell = True  # Nav2 NavFn clearRobotCell
         self._table = navfn_cost_table(self.params.allow_unknown)
         self.descent_fallbacks = 0
         """Plans whose gradient descent failed and that returned the cell path."""
@@ -118,6 +127,10 @@ class NavfnPlanner(GridPlannerBase):
         (ends kept), then Nav2's SimpleSmoother, collision-aware."""
         if not self.params.smooth_path or len(xy) < 3:
             return xy
-        thinned = thin_points(xy, THIN_CELLS * costmap.resolution, costmap,
-                              self.allow_unknown)
-        return smooth_path(thinned, costmap, allow_unknown=self.allow_unknown, keep_cost=True)
+        spacing = THIN_CELLS * costmap.resolution
+        thinned = thin_points(xy, spacing, costmap, self.allow_unknown)
+        out = smooth_path(thinned, costmap, allow_unknown=self.allow_unknown, keep_cost=True)
+        if self.params.straighten_deviation > 0.0:
+            out = interpolate_polyline(straighten(out, costmap, self.params.straighten_deviation,
+                                                  self.allow_unknown), spacing)
+        return out

@@ -113,13 +113,17 @@ class Scheduler:
         self._seq = itertools.count()
         self._stopped = False
         self.events_run = 0
-        self._inbox: deque[tuple[Callable[..., Any], tuple[Any, ...]]] = deque()
+        #: posted work: (time to run at or ``None`` for the clock's reading, fn, args)
+        self._inbox: deque[tuple[float | None, Callable[..., Any], tuple[Any, ...]]] = deque()
         #: wall/throttled modes: how late [real s] each event ran, when set to a deque
         self.lateness: deque[float] | None = None
         #: lockstep with other processes (:mod:`navstack.runtime.transports.lockstep`):
         #: no event later than ``horizon()`` runs; ``on_blocked()`` is called while the
         #: loop waits for the horizon to move (posted work still runs meanwhile)
         self.horizon: Callable[[], float] | None = None
+        #: ``post_at`` work that arrived after the loop had passed its time (lockstep:
+        #: a broken ordering guarantee; should stay 0)
+        self.late_posts = 0
         self.on_blocked: Callable[[], None] | None = None
         self._wake = threading.Event()
         if mode == "wall":
@@ -156,7 +160,14 @@ class Scheduler:
     def post(self, fn: Callable[..., Any], *args: Any) -> None:
         """Thread-safe: run ``fn(*args)`` in the loop as soon as possible (at the
         clock's reading when the loop picks it up)."""
-        self._inbox.append((fn, args))
+        self._inbox.append((None, fn, args))
+        self._wake.set()
+
+    def post_at(self, t: float, fn: Callable[..., Any], *args: Any) -> None:
+        """Thread-safe: run ``fn(*args)`` in the loop at time ``t`` (or at once if the
+        loop is already past it) -- lockstep transports deliver at a time fixed by the
+        sender's stamp, not by when the network thread got the message."""
+        self._inbox.append((t, fn, args))
         self._wake.set()
 
     def _drain_inbox(self) -> None:
@@ -167,11 +178,17 @@ class Scheduler:
         if self.mode == "wall":
             self._now = max(self._now, self.clock())
         while inbox:
-            fn, args = inbox.popleft()
-            self.call_at(self._now, fn, *args)
+            t, fn, args = inbox.popleft()
+            if t is not None and t < self._now - 1e-9:
+                self.late_posts += 1  # lockstep: arrived after the loop passed its time
+            self.call_at(self._now if t is None else t, fn, *args)
 
-    def _wait_for_horizon(self) -> None:
-        """Blocked by the horizon: tell the peers, run posted work, wait to be woken."""
+    def _wait_for_horizon(self, limit: float) -> None:
+        """Blocked by the horizon ``limit``: tell the peers, run posted work, wait to be
+        woken (a wake-up from before this wait does not count: no busy loop)."""
+        self._wake.clear()
+        if self.horizon is not None and self.horizon() > limit:
+            return  # it moved meanwhile
         if self.on_blocked is not None:
             self.on_blocked()
         if self._inbox:
@@ -222,6 +239,9 @@ class Scheduler:
 
     def step(self) -> bool:
         """Run the next event; ``False`` if there is none."""
+        # the horizon is read before the inbox is drained: a peer's messages reach the
+        # inbox before the time announcement that lets the loop run past them
+        limit = self.horizon() if self.horizon is not None else math.inf
         if self._inbox:
             self._drain_inbox()
         queue = self._queue
@@ -229,8 +249,11 @@ class Scheduler:
             if queue[0][2].cancelled:
                 heapq.heappop(queue)
                 continue
-            if self.horizon is not None and queue[0][0] > self.horizon():
-                self._wait_for_horizon()
+            if queue[0][0] > limit:
+                self._wait_for_horizon(limit)
+                limit = self.horizon() if self.horizon is not None else math.inf
+                if self._inbox:
+                    self._drain_inbox()
                 continue
             wall = self._wall_time_for(queue[0][0])
             if wall is not None and self._sleep_until(wall):
@@ -268,11 +291,21 @@ class Scheduler:
             if wall is None or not math.isfinite(t_end) or not self._sleep_until(wall):
                 break
         if math.isfinite(t_end):
-            self._now = max(self._now, t_end)
+            # never past the horizon: work a peer posts for up to the horizon must not
+            # find the clock already beyond its time
+            limit = t_end if self.horizon is None else min(t_end, self.horizon())
+            self._now = max(self._now, limit)
         return False
 
     def run_for(self, duration: float, until: Callable[[], bool] | None = None) -> bool:
         return self.run_until(self._now + duration, until)
+
+    def idle_until(self, t: float) -> None:
+        """Move the clock to ``t`` when no event before ``t`` is pending (a lockstep
+        follower that acknowledged ``t``: its next work happens at ``t`` or later)."""
+        head = min((e[0] for e in self._queue if not e[2].cancelled), default=math.inf)
+        if head >= t:
+            self._now = max(self._now, t)
 
     def pending(self) -> int:
         return sum(1 for e in self._queue if not e[2].cancelled)

@@ -79,6 +79,7 @@ class SimulatorNode(Node):
         self.map_odom_tolerance = 0.1
         self._next_map_odom_t = 0.0
         self._last_imu_t = 0.0
+        self._odom_after_imu = False
         self._odom_pose = Pose2D()
         self.scans_published = 0
         self.odom_published = 0
@@ -189,6 +190,15 @@ class SimulatorNode(Node):
 
     def _odom(self) -> None:
         self.advance()
+        if self._imu_due(self.now):
+            # gyro odometry: an IMU sample due at this instant belongs to this message
+            # (the cart's Mega reads its IMU before it writes the line); the IMU's timer
+            # publishes it after its sample, so the random stream keeps its order
+            self._odom_after_imu = True
+            return
+        self._publish_odom()
+
+    def _publish_odom(self) -> None:
         now = self.now
         odom = self.sim.odom(now)
         if odom is None:
@@ -210,6 +220,11 @@ class SimulatorNode(Node):
             self._next_map_odom_t = now + self.map_odom_period
         self.pub_tf.publish(TFMessage(tuple(tfs)))
 
+    def _imu_due(self, now: float) -> bool:
+        imu = self.sim.imu
+        return (self.sim.gyro_odometry and imu is not None and "imu" not in self.wired
+                and now - self._last_imu_t >= 1.0 / imu.rate_hz - 1e-9)
+
     def _imu(self) -> None:
         self.advance()
         now = self.now
@@ -217,6 +232,9 @@ class SimulatorNode(Node):
         self._last_imu_t = now
         if msg is not None:
             self.pub_imu.publish(msg)
+        if self._odom_after_imu:
+            self._odom_after_imu = False
+            self._publish_odom()
 
     def _gnss(self) -> None:
         self.advance()

@@ -161,6 +161,17 @@ class OdometryParams(Params):
     linear_scale_error: float = Field(default=0.0, gt=-1.0, lt=1.0)
     angular_scale_error: float = Field(default=0.0, gt=-1.0, lt=1.0)
     slip_prob: float = Field(default=0.0, ge=0.0, le=1.0)
+    yaw_rate_source: Literal["wheels", "imu"] = "wheels"
+    """``wheels``: the twist's yaw rate and the heading come from the wheels (a
+    diff-drive controller's odometry).  ``imu``: from the IMU's gyro z, averaged over
+    the IMU samples since the previous message, and the pose is dead-reckoned with it
+    (``heading += w dt``, speed from the wheels) -- the golf cart's odometry, wheel
+    pulses plus gyro (FIELD-ROBOTS.md), as its driver computes it from the sensor
+    Arduino's lines.  Needs the IMU."""
+    unsigned_speed: bool = False
+    """The wheel sensor measures speed without direction (a pulse counter, as the golf
+    cart's): the odometry's speed is the magnitude of the measured one, signed with the
+    last non-zero commanded direction -- as the cart's driver signs it."""
 
 
 class ImuParams(Params):

@@ -34,7 +34,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.core.errors import InvalidMessage
+from navstack.core.errors import ConfigError, InvalidMessage
 from navstack.core.msgs import (
     Imu,
     LaserScan,
@@ -43,12 +43,13 @@ from navstack.core.msgs import (
     Odometry,
     PointCloud2,
     Pose2D,
+    Twist,
     Twist2D,
     TwistWithCovarianceStamped,
 )
 from navstack.sim.collision import footprint_collides, polygon_hits_moving
 from navstack.sim.gnss import GnssModel, MagnetometerModel
-from navstack.sim.kinematics import RobotState, make_model
+from navstack.sim.kinematics import RobotState, integrate_pose, make_model
 from navstack.sim.lidar3d import Lidar3dModel, cast_cloud
 from navstack.sim.packages import PackageWorld
 from navstack.sim.raycast import cast_rays
@@ -105,6 +106,18 @@ class Simulator:
         self.odometry = (WheelOdometryModel(sensors.odometry, holonomic=self.model.holonomic)
                          if sensors.odometry.enabled else None)
         self.imu = ImuModel(sensors.imu) if sensors.imu.enabled else None
+        self.gyro_odometry = (self.odometry is not None
+                              and sensors.odometry.yaw_rate_source == "imu")
+        """Odometry's yaw rate from the gyro (``odometry.yaw_rate_source: imu``)."""
+        self._unsigned_speed = sensors.odometry.unsigned_speed
+        self._direction = 1.0
+        if self.gyro_odometry and self.imu is None:
+            raise ConfigError(f"robot '{robot.name}': odometry.yaw_rate_source 'imu' needs "
+                              f"the IMU; enable sensors.imu or use 'wheels'",
+                              key_path="sensors.odometry.yaw_rate_source")
+        self._gyro = [0.0, 0.0, 0.0]  # sum of gyro z since the last odometry, count, last mean
+        self._gyro_pose: tuple[float, float, float] | None = None
+        self._gyro_t = 0.0
         self.ground_truth = GroundTruthModel(sensors.ground_truth)
         # GNSS and magnetometer draw from their own streams so that enabling them leaves
         # the noise of every other sensor (and so existing seeded runs) unchanged
@@ -138,6 +151,8 @@ class Simulator:
             return False
         self.command = cmd
         self.command_time = now
+        if cmd.vx != 0.0:
+            self._direction = math.copysign(1.0, cmd.vx)
         return True
 
     def teleport(self, pose: Pose2D) -> None:
@@ -349,7 +364,36 @@ class Simulator:
         """The wheel-odometry message for the encoder counts integrated so far."""
         if self.odometry is None:
             return None
-        return self.odometry.message(now)
+        msg = self.odometry.message(now)
+        if self.gyro_odometry or self._unsigned_speed:
+            return self._dead_reckoning(msg, now)
+        return msg
+
+    def _dead_reckoning(self, msg: Odometry, now: float) -> Odometry:
+        """``yaw_rate_source: imu``: the wheels' speed with the mean gyro z of the IMU
+        samples since the previous message; ``unsigned_speed``: the speed's magnitude
+        with the commanded direction; dead-reckoned over the message period -- what the
+        cart's driver computes from its sensor Arduino's lines
+        (:class:`navstack.drivers.odometry.DeadReckoning`).  The covariances stay the
+        wheel model's."""
+        w = msg.twist.twist.angular.z
+        if self.gyro_odometry:
+            total, n, last = self._gyro
+            w = total / n if n else last
+            self._gyro = [0.0, 0.0, w]
+        v = msg.twist.twist.linear.x
+        if self._unsigned_speed:
+            v = self._direction * abs(v)
+        if self._gyro_pose is None:
+            p0 = self.odometry.pose if self.odometry is not None else Pose2D()
+            self._gyro_pose = (p0.x, p0.y, p0.theta)
+        else:
+            x, y, yaw = self._gyro_pose
+            x, y, yaw = integrate_pose(x, y, yaw, v, 0.0, w, now - self._gyro_t)
+            self._gyro_pose = (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+        self._gyro_t = now
+        return replace(msg, pose=replace(msg.pose, pose=Pose2D(*self._gyro_pose).to_pose()),
+                       twist=replace(msg.twist, twist=Twist.planar(v, 0.0, w)))
 
     def imu_sample(self, dt: float, now: float) -> Imu | None:
         """An IMU sample; acceleration from the state ``dt`` ago (the previous sample)."""
@@ -357,6 +401,9 @@ class Simulator:
             return None
         msg = self.imu.measure(self.state, self._imu_prev_state, dt, now, self.rng)
         self._imu_prev_state = self.state
+        if self.gyro_odometry and msg is not None:
+            self._gyro[0] += msg.angular_velocity.z
+            self._gyro[1] += 1
         return msg
 
     def gnss_sample(self, now: float

@@ -133,27 +133,33 @@ def split_demo(
     lockstep: LockstepOpt = False,
     blackout: Annotated[str | None, typer.Option(help="START:DURATION of a robot link "
                                                  "blackout [s].")] = None,
-    reference: Annotated[bool, typer.Option(help="Also run the in-process demo with the "
-                                            "same seed and compare trajectories.")] = True,
+    reference: Annotated[bool, typer.Option(help="Also run the same stack in one process "
+                                            "(same nodes, parameters and seed, simulated "
+                                            "time) and compare trajectories.")] = True,
+    in_process: Annotated[bool, typer.Option(
+        "--in-process", help="Only run the same stack's robot and base halves in one "
+                             "process on the in-process bus (the reference; with "
+                             "--clock-offset on the clock a lockstep robot with that "
+                             "offset runs on) and print its figures.")] = False,
     reference_csv: Annotated[Path | None, typer.Option(
-        "--reference-csv", help="Compare with this trajectory.csv of an earlier `navstack "
-                                "demo` run with the same seed instead of running it.")]
+        "--reference-csv", help="Compare with this t,x,y,theta trajectory CSV instead of "
+                                "running the in-process reference.")]
     = None,
     port: Annotated[int, typer.Option(help="Loopback TCP port of the robot.")] = 7447,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write the figures "
                                                   "here.")] = None,
 ) -> None:
     """Run the office mission as robot + base processes over Zenoh on loopback and print
-    goals, collisions, trajectory deviation from the in-process run, latencies, the
-    estimated clock offset and (with --blackout) the time to a zero base command."""
-    import tempfile
+    goals, collisions, trajectory deviation from the same stack run in one process,
+    latencies, the estimated clock offset and (with --blackout) the time to a zero base
+    command.  `navstack bench split` runs all of issue 21's cases."""
     from importlib import resources
 
     import numpy as np
 
     from navstack.interfaces.demo import default_waypoints_path
     from navstack.interfaces.split_demo import reference_run, run_split, score
-    from navstack.runtime.config import load_stack
+    from navstack.interfaces.split_nodes import trajectory_array
 
     stack = stack or Path(str(resources.files("navstack") / "config" / "split_office.yaml"))
     wp = waypoints or default_waypoints_path()
@@ -161,20 +167,31 @@ def split_demo(
     if blackout is not None:
         ov = _overrides(None, None, None, None, False, [blackout])
         span = ov["impairments.blackouts"][0]
+    figures: dict[str, Any]
     try:
-        seed = load_stack(stack).seed
-        robot_rep, base_rep = run_split(stack, wp, rate=rate, offset=clock_offset,
-                                        compensate=not no_compensate, blackout=span,
-                                        port=port, lockstep=lockstep)
-        if reference_csv is not None:
-            ref = np.loadtxt(reference_csv, delimiter=",", skiprows=1).reshape(-1, 4)
-        elif reference:
-            ref = reference_run(seed, wp, Path(tempfile.mkdtemp(prefix="navstack-ref-")))
+        if in_process:
+            ref_run = reference_run(stack, wp, clock_offset=clock_offset)
+            samples = ref_run["scan_to_cmd_s"]
+            figures = {"goals": f"{ref_run['succeeded']}/{len(ref_run['goals'])}",
+                       "goal_times_s": [g["time_s"] for g in ref_run["goals"]],
+                       "failures": [f"{g['name']}: {g['reason']}" for g in ref_run["goals"]
+                                    if g["status"] != "SUCCEEDED"],
+                       "collisions": ref_run["collisions"],
+                       "sim_time_s": sum(g["time_s"] for g in ref_run["goals"]),
+                       "scan_to_cmd_samples": len(samples)}
         else:
-            ref = None
+            robot_rep, base_rep = run_split(stack, wp, rate=rate, offset=clock_offset,
+                                            compensate=not no_compensate, blackout=span,
+                                            port=port, lockstep=lockstep)
+            if reference_csv is not None:
+                ref = np.loadtxt(reference_csv, delimiter=",", skiprows=1).reshape(-1, 4)
+            elif reference:
+                ref = trajectory_array(reference_run(stack, wp)["trajectory"])
+            else:
+                ref = None
+            figures = score(robot_rep, base_rep, ref, clock_offset, span)
     except (NavstackError, RuntimeError, OSError, ValueError) as exc:
         raise fail(one_line(exc)) from None
-    figures = score(robot_rep, base_rep, ref, clock_offset, span)
     for key, value in figures.items():
         typer.echo(f"{key:32s} {value:.4f}" if isinstance(value, float)
                    else f"{key:32s} {value}")
@@ -182,4 +199,5 @@ def split_demo(
                           "args": json.loads(json.dumps({"rate": rate, "offset": clock_offset,
                                                          "compensate": not no_compensate,
                                                          "lockstep": lockstep,
+                                                         "in_process": in_process,
                                                          "blackout": blackout}))})

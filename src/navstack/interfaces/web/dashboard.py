@@ -40,7 +40,11 @@ from navstack.interfaces.web.guard import (
 )
 from navstack.interfaces.web.model import DashboardModel
 from navstack.interfaces.web.phone import PhoneBridge, register_phone_routes
-from navstack.interfaces.web.server import create_app, is_authenticated_estop
+from navstack.interfaces.web.server import (
+    create_app,
+    is_authenticated_estop,
+    listening_socket,
+)
 from navstack.interfaces.web.transport import ReadStats, guarded_protocols
 
 TOKEN_ENV = "NAVSTACK_DASHBOARD_TOKEN"
@@ -129,19 +133,7 @@ class DashboardHandle:
 
 
 def _bind(host: str, port: int) -> socket.socket:
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind((host, port))
-    except OSError as exc:
-        sock.close()
-        raise DashboardError(f"cannot listen on {host}:{port} ({exc.strerror}); choose "
-                             f"another port (--port, 0 picks a free one) or stop the program "
-                             f"using it") from None
-    sock.listen(512)
-    sock.setblocking(False)
-    return sock
+    return listening_socket(host, port, 512, DashboardError)
 
 
 def serve_dashboard(target: NavStack | LiveRunner, host: str = "127.0.0.1", port: int = 8080,

@@ -14,7 +14,6 @@ no commands, so no token; it listens on loopback unless told otherwise.
 
 from __future__ import annotations
 
-import socket
 import threading
 import time
 from dataclasses import dataclass, field
@@ -30,7 +29,7 @@ from navstack.core.errors import NavstackError
 from navstack.core.msgs import Path
 from navstack.interfaces.fleet_mission import FleetMission
 from navstack.interfaces.web.images import grid_png
-from navstack.interfaces.web.server import static_dir
+from navstack.interfaces.web.server import listening_socket, static_dir
 from navstack.runtime.bus import QoS
 
 TRAIL_POINTS = 600
@@ -137,16 +136,7 @@ def serve_fleet_view(view: FleetView, host: str = "127.0.0.1", port: int = 8080
                      ) -> FleetViewHandle:
     """Serve the fleet page in a thread; returns once it accepts connections (``port``
     0 picks a free one)."""
-    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind((host, port))
-    except OSError as exc:
-        sock.close()
-        raise FleetViewError(f"cannot listen on {host}:{port} ({exc.strerror}); choose another "
-                             f"port (--port, 0 picks a free one)") from None
-    sock.listen(64)
-    sock.setblocking(False)
+    sock = listening_socket(host, port, 64, FleetViewError)
     server = uvicorn.Server(uvicorn.Config(fleet_app(view), log_level="warning",
                                            access_log=False, lifespan="off", loop="asyncio"))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]},

@@ -29,6 +29,7 @@ import contextlib
 import json
 import random
 import secrets
+import socket
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from importlib import resources
@@ -455,3 +456,22 @@ async def _push_frames(model: DashboardModel, clock: FrameClock, send: Callable[
         await send(text)
         period = viewers.frame_period(model.frame_period)
         await asyncio.sleep(max(0.0, period - (loop.time() - started)))
+
+
+def listening_socket(host: str, port: int, backlog: int,
+                     error: type[Exception]) -> socket.socket:
+    """A non-blocking socket listening on ``host:port`` (IPv6 when ``host`` has a colon;
+    port 0 picks a free one) for uvicorn; a port in use raises ``error`` naming it and
+    the fix."""
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET,
+                         socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise error(f"cannot listen on {host}:{port} ({exc.strerror}); choose another port "
+                    f"(--port, 0 picks a free one) or stop the program using it") from None
+    sock.listen(backlog)
+    sock.setblocking(False)
+    return sock

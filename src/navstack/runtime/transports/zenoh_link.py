@@ -35,7 +35,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zenoh
 
@@ -55,11 +55,30 @@ from navstack.runtime.transports.keys import (
 )
 from navstack.runtime.transports.payloads import shift_stamps
 
+if TYPE_CHECKING:
+    from navstack.runtime.transports.lockstep import Lockstep
+
 _log = logging.getLogger("navstack.transport")
 _PROBE = struct.Struct("<d32s")  # t1, prober's name
 _ANSWER = struct.Struct("<ddd")
 #: rmw_zenoh-style attachment: sequence number, source timestamp [ns], 16-byte source gid
 _ATTACHMENT = struct.Struct("<qq16s")
+#: lockstep: the sender's elapsed simulated time, appended to every message's attachment
+MARK = struct.Struct("<d")
+
+
+def direct(fn: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback:
+    """A subscriber callback run on Zenoh's receiving thread in arrival order (not, as by
+    default, on a thread of its own per subscriber, which reorders samples of different
+    keys): for callbacks that never block.  Lockstep relies on a peer's samples arriving
+    before its time announcement that follows them."""
+    return zenoh.handlers.Callback(fn, indirect=False)
+
+
+def attachment_bytes(sample: zenoh.Sample | zenoh.Query) -> bytes | None:
+    """A sample's or query's attachment as bytes (``None`` without one)."""
+    att = sample.attachment
+    return None if att is None else att.to_bytes()
 
 
 @dataclass
@@ -109,6 +128,9 @@ class ZenohLink:
             for name in peers}
         self.topic_stats: dict[str, TopicStats] = {}
         self._exports: dict[str, Callable[[Any, float], None]] = {}
+        #: lockstep time coupling (set by :class:`~.lockstep.Lockstep`), else ``None``
+        self.lockstep: Lockstep | None = None
+        self._fetchers: list[_LatchedFetcher] = []
         self._imports: set[str] = set()
         self._seq = 0
         self._gid = params.name.encode()[:16].ljust(16, b"\0")
@@ -131,7 +153,7 @@ class ZenohLink:
         runtime.bus.add_tap(self._tap)
         self._hb_key = navstack_key(params.domain_id, "hb", params.name)
         self._entities.append(self.session.declare_subscriber(
-            navstack_key(params.domain_id, "hb", "*"), self._on_heartbeat))
+            navstack_key(params.domain_id, "hb", "*"), direct(self._on_heartbeat)))
         self.scheduler.create_timer(params.clock.sync_period, self._heartbeat)
         self._stop = threading.Event()
         #: NTP probes from the link thread (off in lockstep: the barrier exchanges clocks)
@@ -146,13 +168,39 @@ class ZenohLink:
         """Seconds since the link opened on this process's clock (impairment schedule)."""
         return self.scheduler.clock() - self.opened_at
 
-    def passes(self) -> bool:
-        """Whether a message sent or received now survives the configured impairments."""
+    def passes(self, mark: bytes | None = None) -> bool:
+        """Whether a message sent or received now survives the configured impairments
+        (lockstep: a received message carrying ``mark`` is judged at its delivery time)."""
+        if mark is not None and self.lockstep is not None:
+            t = self.lockstep.arrival(mark)
+            if t is not None:
+                return self.impairment.passes(t - self.opened_at)
         return self.impairment.passes(self.link_time())
 
-    def deliver(self, fn: Callable[..., Any], *args: Any) -> None:
-        """Hand ``fn(*args)`` to the scheduler, ``impairments.delay`` late."""
+    def mark(self) -> bytes | None:
+        """Lockstep: this loop's elapsed time for the receiver's delivery time (attached
+        to every message); ``None`` on a wall clock."""
+        return None if self.lockstep is None else self.lockstep.mark()
+
+    def release(self) -> None:
+        """Before blocking on a call to a peer (lockstep: let the peer run up to it)."""
+        if self.lockstep is not None:
+            self.lockstep.release()
+
+    def started(self) -> bool:
+        """Every peer's clock is estimated and every latched import has been read."""
+        return (all(self.ready(p) for p in self.peers)
+                and all(f.fetched for f in self._fetchers))
+
+    def deliver(self, fn: Callable[..., Any], *args: Any, mark: bytes | None = None) -> None:
+        """Hand ``fn(*args)`` to the scheduler, ``impairments.delay`` late (lockstep: at
+        the time ``mark`` fixes, :meth:`.Lockstep.arrival`)."""
         delay = self.params.impairments.delay
+        if self.lockstep is not None:
+            t = self.lockstep.arrival(mark)
+            if t is not None:
+                self.scheduler.post_at(t + delay, fn, *args)
+                return
         if delay > 0.0:
             timer = threading.Timer(delay / self.params.clock.rate, self.scheduler.post,
                                     (fn, *args))
@@ -228,14 +276,16 @@ class ZenohLink:
 
     def _heartbeat(self) -> None:
         if not self._closed and self.passes():
-            self.session.put(self._hb_key, self.params.name.encode())
+            self.session.put(self._hb_key, self.params.name.encode(), attachment=self.mark())
 
     def _on_heartbeat(self, sample: zenoh.Sample) -> None:
-        if self._closed or not self.passes():
+        mark = attachment_bytes(sample)
+        if self._closed or not self.passes(mark):
             return
         peer = self.peers.get(sample.payload.to_bytes().decode(errors="replace"))
         if peer is not None:
-            peer.last_heard = self.scheduler.clock()
+            heard = self.lockstep.arrival(mark) if self.lockstep is not None else None
+            peer.last_heard = self.scheduler.clock() if heard is None else heard
 
     def peer_up(self, peer: str) -> bool:
         """Whether ``peer``'s heartbeat (sent every ``sync_period`` from its loop) arrived
@@ -255,7 +305,7 @@ class ZenohLink:
     # --- topics -------------------------------------------------------------------------
     def _attachment(self) -> bytes:
         self._seq += 1
-        return _ATTACHMENT.pack(self._seq, time.time_ns(), self._gid)
+        return _ATTACHMENT.pack(self._seq, time.time_ns(), self._gid) + (self.mark() or b"")
 
     def export_topic(self, local: str, msg_type: type, *, qos: QoS = DEFAULT_QOS,
                      remote: str | None = None) -> str:
@@ -325,14 +375,14 @@ class ZenohLink:
         def on_sample(sample: zenoh.Sample) -> None:
             if self._closed:
                 return
-            if not self.passes() or not self.ready(peer):
+            raw = attachment_bytes(sample)
+            mark = raw[_ATTACHMENT.size:] if raw is not None else None
+            if not self.passes(mark) or not self.ready(peer):
                 stats.dropped += 1
                 return
-            if sample.attachment is not None:
-                raw = sample.attachment.to_bytes()
-                if len(raw) == _ATTACHMENT.size:
-                    _, sent_ns, _ = _ATTACHMENT.unpack(raw)
-                    stats.latencies.append((time.time_ns() - sent_ns) * 1e-9)
+            if raw is not None and len(raw) == _ATTACHMENT.size:  # (not in lockstep)
+                _, sent_ns, _ = _ATTACHMENT.unpack(raw)
+                stats.latencies.append((time.time_ns() - sent_ns) * 1e-9)
             try:
                 msg = self.codec.deserialize(sample.payload.to_bytes(), ros_type)
             except Exception as exc:  # rosbags raises plain errors on bad CDR
@@ -340,10 +390,10 @@ class ZenohLink:
                 _log.warning("%s: dropped a malformed %s sample: %s", local, ros_type, exc)
                 return
             stats.received += 1
-            self.deliver(pub.publish, self.compensate(msg, peer))
+            self.deliver(pub.publish, self.compensate(msg, peer), mark=mark or None)
 
         self._entities.append(self.session.declare_subscriber(
-            topic_key(d, remote_full, ros_type), on_sample))
+            topic_key(d, remote_full, ros_type), direct(on_sample)))
         self._entities.append(self.session.liveliness().declare_token(liveliness_token(
             d, self.zid, 0, len(self._entities), "MS", self.params.namespace, self.params.name,
             remote_full, ros_type, qos_string(qos.depth, qos.latched))))
@@ -385,6 +435,7 @@ class _LatchedFetcher:
         self.link, self.on_sample, self.peer = link, on_sample, peer
         self.key = navstack_key(link.params.domain_id, "latched", remote_full)
         self.fetched = False
+        link._fetchers.append(self)
         link.add_periodic(self._poll)
 
     def _poll(self) -> None:

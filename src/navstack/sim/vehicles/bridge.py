@@ -13,6 +13,13 @@ step: simulated time does not advance while a packet is in flight.
   vehicle, and the bridge waits until the driver's reader has queued it, then lets the
   driver decode and publish it (``deliver``) -- at *t*.
 
+A wait that runs out (a reader thread starved of CPU for ``sync_timeout``) counts in
+``sync_timeouts`` and leaves the packet in flight: it still counts towards its own
+command or telemetry sample, so the packets that follow stay paired with their waits
+(counting only what had arrived made every later command wait for the late packet
+instead and be applied one command late for the rest of the run); a second timeout in
+a row means packets were lost, and the counts resynchronise.
+
 So a run through the wire is as deterministic as one in process (the bytes, not the
 thread timing, decide what happens), its simulated latency is zero, and the wall time
 each packet took (encode, write, OS, read, decode) is measured on the side
@@ -111,6 +118,9 @@ class HilBridgeNode(Node):
         self.perfect_localization = perfect_localization
         self._last_actuation = 0.0
         self._consumed_target = 0
+        self._missed = 0  # consecutive command waits that timed out
+        self._expected: dict[str, int] = {}  # telemetry packets written per link
+        self._telemetry_missed: dict[str, int] = {}
         self.latencies: list[float] = []
         """Wall seconds from the driver receiving a command to the vehicle decoding it."""
         self.sync_timeouts = 0
@@ -140,14 +150,19 @@ class HilBridgeNode(Node):
             return
         target = self._consumed_target + 1
         if far.wait_consumed(target, self.sync_timeout):
-            self._consumed_target = target
-            if far.consumed_walls:  # empty if a late packet from a timed-out wait counted
-                applied, decoded = far.consumed_walls[-1]
+            self._missed = 0
+            if far.consumed_walls:
+                applied, decoded = far.consumed_walls[-1]  # this command's packet
                 if applied:
                     self.latencies.append(decoded - wall)
         else:
             self.sync_timeouts += 1
-            self._consumed_target = far.packets_consumed
+            self._missed += 1
+            if self._missed > 1:  # twice in a row: packets were lost, not late
+                target = far.packets_consumed
+        # a late packet is still in flight: it counts towards this target, not the next
+        # command's (else every later command would be applied one command late)
+        self._consumed_target = target
         far.consumed_walls.clear()
         self._actuate(self.now)
 
@@ -179,9 +194,13 @@ class HilBridgeNode(Node):
             far = self.vehicle.far_side
             sent_any = False
             for link, packet in source.sample(self.sim_node.sim, now, dt):
-                want = self.delivered(link) + 1
+                # count the packets written, not those delivered: a packet that was late
+                # once must not satisfy the wait for the next one (counted before the
+                # write: the driver's reader may queue it at once)
+                want = max(self._expected.get(link, 0), self.delivered(link)) + 1
                 if far.send(link, packet):
                     sent_any = True
+                    self._expected[link] = want
                     self._await_delivery(link, want)
             if sent_any:
                 self.deliver()
@@ -192,8 +211,13 @@ class HilBridgeNode(Node):
         while self.delivered(link) < want:
             if time.monotonic() > deadline:
                 self.sync_timeouts += 1
+                missed = self._telemetry_missed.get(link, 0) + 1
+                self._telemetry_missed[link] = missed
+                if missed > 1:  # twice in a row: lost, not late -- count what came
+                    self._expected[link] = self.delivered(link)
                 return
             time.sleep(2e-5)
+        self._telemetry_missed[link] = 0
 
     # --- perfect localization ------------------------------------------------------------
     def _on_odom(self, msg: Odometry) -> None:

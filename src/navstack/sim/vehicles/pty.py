@@ -79,6 +79,11 @@ class PtyMasterTransport(Transport):
             return []
         try:
             return [os.read(fd, 4096)]
+        except BlockingIOError:
+            # select reported the hang-up of a closed slave, and the driver opened it
+            # before the read: nothing to read, and the pty is fine (closing it here
+            # pulled the device from under the driver: EIO on its open or first write)
+            return []
         except OSError as exc:
             if exc.errno == 5:  # EIO: the driver has not opened the slave (yet / any more)
                 time.sleep(timeout)  # select keeps reporting it readable: do not spin
