@@ -299,8 +299,17 @@ def _register_lone_scans(mapper: SlamMapper, log: ScanLog, trajectory: FloatArra
         f = ((log.stamps[k] - log.stamps[a]) / span if timed and span > 0
              else (k - a) / max(b - a, 1))
         f = min(max(f, 0.0), 1.0)
-        guess = se2_compose(poses[before], se2_between(poses[before], poses[after]) * f)
-        pose = mapper.register(log.ranges[int(k)], guess)
+        step = se2_between(poses[before], poses[after])
+        guess = se2_compose(poses[before], step * f)
+        # the scan was taken somewhere between its neighbours: the clock's fraction
+        # first, then guesses along the step one search window apart (a robot that
+        # stood still, then drove, breaks the clock's interpolation), and the online
+        # placement (its relation to the node before, now optimised)
+        along = np.linspace(0.0, 1.0, 2 + int(math.hypot(step[0], step[1])
+                                               / mapper.params.correlation_search_space_dimension))
+        guesses = [guess, *(se2_compose(poses[before], step * g) for g in along),
+                   trajectory[k].copy()]
+        pose = mapper.register(log.ranges[int(k)], guesses)
         # no local fit: the interpolation between the neighbours (1-2 scan spacings
         # apart) is closer than the online placement, which had only the past
         trajectory[k] = guess if pose is None else pose

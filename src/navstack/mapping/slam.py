@@ -415,20 +415,29 @@ class SlamMapper:
                 pose = match.pose
         self.last_scan = (last, se2_between(self._poses[last], pose))
 
-    def register(self, ranges: NDArray[np.floating], guess: FloatArray) -> FloatArray | None:
+    def register(self, ranges: NDArray[np.floating], guess: FloatArray | Sequence[FloatArray]
+                 ) -> FloatArray | None:
         """Pose of a scan near ``guess`` against the nodes around it (a local match; no
-        node, no edge), or ``None`` if it does not fit."""
+        node, no edge), or ``None`` if it does not fit.  With several guesses (a list of
+        poses) each is matched against the nodes around the first and the best fit wins
+        (the scan lies somewhere along a path and one window does not cover it)."""
         p = self.params
+        guesses = ([np.asarray(guess, float)] if isinstance(guess, np.ndarray)
+                   and guess.ndim == 1 else [np.asarray(g, float) for g in guess])
         points = self.scan_points(ranges)
-        near = self._nearest_nodes(guess, p.scan_buffer_size,
+        near = self._nearest_nodes(guesses[0], p.scan_buffer_size,
                                    p.scan_buffer_maximum_scan_distance)
         if not near or points.shape[0] < 10:
             return None
         ref, nrm, msk, grid = self._local_map(near)
-        match = self.match_points(ref, nrm, msk, points, guess, grid=grid, covariance=False)
-        if match is None or match.response < p.link_match_minimum_response_fine:
+        best: MatchResult | None = None
+        for g in guesses:
+            match = self.match_points(ref, nrm, msk, points, g, grid=grid, covariance=False)
+            if match is not None and (best is None or match.response > best.response):
+                best = match
+        if best is None or best.response < p.link_match_minimum_response_fine:
             return None
-        return match.pose
+        return best.pose
 
     def _seen_speed(self) -> float:
         """The robot's top speed so far (90th percentile: log clocks jitter)."""
