@@ -110,6 +110,29 @@ def test_unobserved_walls_do_not_count_and_completeness_is_the_observed_free_fra
     assert score.truth_cells == 18 + 2 * 9  # bottom face + lower halves of the sides
 
 
+def test_walls_no_return_hit_do_not_count_with_observed_points() -> None:
+    # a 1 m x 1 m room (cells 0..19) fully observed free by the estimate, but the
+    # estimate lacks the right wall (the laser never reached it)
+    v = np.zeros((20, 20), np.int8)
+    v[0, :] = v[-1, :] = v[:, 0] = v[:, -1] = 100
+    est_v = v.copy()
+    est_v[1:-1, -1] = 0
+    plain = occupancy_iou(grid(est_v), grid(v), tolerance_cells=0)
+    assert plain.false_negatives == 18  # the right wall's inner face
+    # returns only on the bottom, top and left walls (cell centres)
+    xs = (np.arange(1, 19) + 0.5) * RES
+    pts = np.vstack([np.column_stack([xs, np.full(18, 0.5 * RES)]),
+                     np.column_stack([xs, np.full(18, 19.5 * RES)]),
+                     np.column_stack([np.full(18, 0.5 * RES), xs])])
+    seen = occupancy_iou(grid(est_v), grid(v), tolerance_cells=0, observed_points=pts)
+    # the right wall's face is more than one cell from every return except next to the
+    # bottom and top walls' returns at x = 18.5 cells; the estimate's two corner cells
+    # beside its missing wall are its surface but no true face (false positives either way)
+    assert seen.false_negatives == 2
+    assert seen.false_positives == plain.false_positives == 2
+    assert seen.truth_cells == plain.truth_cells - 16
+
+
 def test_slam_style_thin_walls_match_thick_true_walls() -> None:
     world = room_world(3)
     world.occupied[60:64, 30:34] = False  # no pillar: the scan below sees the bare room

@@ -34,16 +34,18 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from navstack.benchmarks.common import BenchResult
 from navstack.benchmarks.sim_logs import SimLog, record_route
 from navstack.benchmarks.slam import log_path
 from navstack.core.errors import NavstackError
-from navstack.core.geometry import se2_compose
+from navstack.core.geometry import FloatArray, se2_compose
 from navstack.mapping.carmen import LASER_KINDS, read_carmen
 from navstack.mapping.map_metrics import MapScore, occupancy_iou
 from navstack.mapping.occupancy import LogOddsGrid
@@ -179,10 +181,27 @@ def _read_text(path: Path) -> str:
     return data.decode("utf-8", errors="replace")
 
 
+def route_returns(sim: SimLog, mapper_points: Callable[[NDArray[np.floating]], FloatArray],
+                  scans: NDArray[np.int64] | None = None) -> FloatArray:
+    """``(N, 2)`` the laser returns of the log's scans (``scans``: those indices, e.g.
+    the scans that became the map's nodes) drawn at their true poses (world frame): what
+    the laser hit, for :func:`occupancy_iou`'s ``observed_points``."""
+    assert sim.log.reference is not None
+    index = np.arange(len(sim.log.ranges)) if scans is None else np.asarray(scans)
+    parts = []
+    for k in index:
+        x, y, th = sim.log.reference[k]
+        pts = mapper_points(sim.log.ranges[k])
+        c, s = math.cos(th), math.sin(th)
+        parts.append(pts @ np.array([[c, s], [-s, c]]) + (x, y))
+    return np.vstack(parts) if parts else np.zeros((0, 2))
+
+
 def map_world(sim: SimLog) -> tuple[OfflineResult, MapScore]:
     """SLAM on a simulated log with the map frame at the first true pose, and the map
     scored against the world raster (0.05 m, one cell of tolerance) after the SE(2)
-    alignment of the ATE (a SLAM map's frame is its own: only its shape is scored)."""
+    alignment of the ATE (a SLAM map's frame is its own: only its shape is scored), on
+    the walls the route's laser hit (:func:`route_returns`)."""
     assert sim.log.reference is not None
     params = log_params({"map_start_pose": [float(v) for v in sim.log.reference[0]]})
     result = score_run(sim.log, params)
@@ -192,7 +211,11 @@ def map_world(sim: SimLog) -> tuple[OfflineResult, MapScore]:
     grid = LogOddsGrid(mapper.params.resolution)
     mapper.integrate_into(grid, aligned)
     truth = load_world(sim.world).to_occupancy_grid()
-    return result, occupancy_iou(grid.to_occupancy_grid(crop=True), truth)
+    # the map holds the node scans: score it on the walls they hit from their true poses
+    node_scans = np.flatnonzero(np.diff(np.r_[-1, result.node_index]) > 0)
+    return result, occupancy_iou(grid.to_occupancy_grid(crop=True), truth,
+                                 observed_points=route_returns(sim, mapper.scan_points,
+                                                               node_scans))
 
 
 def run(quick: bool, data_dir: Path | None = None) -> BenchResult:

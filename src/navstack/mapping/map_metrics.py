@@ -105,6 +105,19 @@ def _grid_extent(grid: OccupancyGrid, name: str) -> tuple[float, float, float, f
     return o.x, o.y, o.x + data.shape[1] * res, o.y + data.shape[0] * res
 
 
+def _hit_cells(points: ArrayLike, anchor: tuple[float, float], col0: int, row0: int,
+               shape: tuple[int, int], resolution: float, dilate: int) -> NDArray[np.bool_]:
+    """Cells of the common lattice within ``dilate`` cells of one of ``points``."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    cols = np.floor((pts[:, 0] - anchor[0]) / resolution).astype(np.int64) - col0
+    rows = np.floor((pts[:, 1] - anchor[1]) / resolution).astype(np.int64) - row0
+    inside = (cols >= 0) & (cols < shape[1]) & (rows >= 0) & (rows < shape[0])
+    hit = np.zeros(shape, dtype=bool)
+    hit[rows[inside], cols[inside]] = True
+    return binary_dilation(hit, np.ones((2 * dilate + 1,) * 2, dtype=bool))
+
+
 def _resample(classes: NDArray[np.int8], grid: OccupancyGrid, anchor: tuple[float, float],
               col0: int, row0: int, shape: tuple[int, int], res: float) -> NDArray[np.int8]:
     """Splat source cells onto the common grid: lattice cells ``[anchor + i*res, ...)``,
@@ -147,7 +160,8 @@ def _has_4_neighbour(mask: BoolArray) -> BoolArray:
 def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: float = 0.05,
                   tolerance_cells: int = 1, *,
                   occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
-                  free_thresh: float = DEFAULT_FREE_THRESH) -> MapScore:
+                  free_thresh: float = DEFAULT_FREE_THRESH,
+                  observed_points: ArrayLike | None = None) -> MapScore:
     """Agreement of an estimated map with the true one on the observable wall surface.
 
     Both grids (any origins and resolutions, origin yaw 0) are resampled onto a common
@@ -164,6 +178,13 @@ def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: fl
       *and known* (free or occupied) in the estimate -- wall faces next to space the
       estimate has observed;
     * estimate surface E: occupied estimate cells with a 4-neighbour free in the estimate.
+
+    With ``observed_points`` (``(N, 2)`` laser returns drawn at the *true* poses of the
+    route, in the truth's frame) T keeps only the wall cells within ``max(1,
+    tolerance_cells)`` cells of a return: the walls the route's laser actually hit.  A
+    wall face next to observed free space can still be one no beam reached -- grazed at
+    a shallow angle, or beyond the laser's range at the end of a beam that found
+    nothing -- and no map, however exact its poses, has it.
 
     With ``d`` the Chebyshev distance in cells and ``k = tolerance_cells``:
     TP = #{e in E: d(e, T) <= k}, FP = #E - TP, FN = #{t in T: d(t, E) > k};
@@ -195,6 +216,9 @@ def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: fl
     free_t = tru == _FREE
     known_e = est != _UNKNOWN
     truth_surface = (tru == _OCCUPIED) & _has_4_neighbour(free_t & known_e)
+    if observed_points is not None:
+        truth_surface &= _hit_cells(observed_points, (ax, ay), col0, row0, shape, resolution,
+                                    max(1, tolerance_cells))
     est_surface = (est == _OCCUPIED) & _has_4_neighbour(est == _FREE)
     n_truth = int(truth_surface.sum())
     if n_truth == 0:

@@ -106,19 +106,61 @@ class OdometryNoise:
     heavy-tailed (a wheel slips now and then) and a slip must not find a tight edge.  A
     wheel-slipping log thus gets weak odometry edges by itself, a good one keeps them
     useful where the scans are ambiguous.  Until ten steps were compared the odometry's
-    quality is unknown and the mapper adds no odometry edges."""
+    quality is unknown and the mapper adds no odometry edges.
+
+    *Scale.*  Wheel odometry is usually mis-scaled (a wheel radius a percent off, a
+    gyro's gain): a systematic error the same way at every step, which odometry edges
+    would add up wherever the matches leave a direction open (a long aisle, an open
+    hall) instead of averaging it out.  The least-squares scale of the matched against
+    the odometry translation (along the odometry's motion) and rotation over the last
+    ``SCALE_WINDOW`` compared steps (:meth:`scale`, clamped to 0.8 .. 1.25, 1 until the
+    steps add up to ``SCALE_MINIMUM`` m^2 / rad^2) corrects every step before it becomes
+    an edge (:meth:`calibrated_step`, Borenstein & Feng's systematic odometry errors), and
+    the noise is learned from what is left."""
 
     WINDOW = 50
+    SCALE_WINDOW = 200
+    SCALE_MINIMUM = 1.0
+    SCALE_LIMITS = (0.8, 1.25)
 
     def __init__(self, params: SlamParams) -> None:
         self.linear = params.odometry_linear_error
         self.angular = params.odometry_angular_error
         self._lin: list[float] = []
         self._ang: list[float] = []
+        self._scale_lin: list[tuple[float, float]] = []  # (odometry, matched) [m]
+        self._scale_ang: list[tuple[float, float]] = []  # (odometry, matched) [rad]
+
+    @staticmethod
+    def _fit(pairs: list[tuple[float, float]], minimum: float) -> float:
+        arr = np.asarray(pairs, dtype=np.float64).reshape(-1, 2)
+        oo = float(np.dot(arr[:, 0], arr[:, 0]))
+        if oo < minimum:
+            return 1.0
+        lo, hi = OdometryNoise.SCALE_LIMITS
+        return min(max(float(np.dot(arr[:, 0], arr[:, 1])) / oo, lo), hi)
+
+    def scale(self) -> tuple[float, float]:
+        """The odometry's (translation, rotation) scale learned from the matches."""
+        return (self._fit(self._scale_lin, self.SCALE_MINIMUM),
+                self._fit(self._scale_ang, self.SCALE_MINIMUM))
+
+    def calibrated_step(self, odometry_step: FloatArray) -> FloatArray:
+        """``odometry_step`` with its translation and rotation scaled by :meth:`scale`."""
+        s_lin, s_ang = self.scale()
+        return np.array([s_lin * odometry_step[0], s_lin * odometry_step[1],
+                         s_ang * odometry_step[2]])
 
     def observe(self, odometry_step: FloatArray, matched_step: FloatArray) -> None:
         """Record one odometry step against the matched step of the same two scans."""
-        dist = math.hypot(odometry_step[0], odometry_step[1])
+        raw = np.asarray(odometry_step, dtype=np.float64)
+        dist = math.hypot(raw[0], raw[1])
+        if dist > 1e-6:
+            along = (float(matched_step[0]) * raw[0] + float(matched_step[1]) * raw[1]) / dist
+            self._scale_lin = [*self._scale_lin, (dist, along)][-self.SCALE_WINDOW:]
+        turn = math.remainder(float(matched_step[2]), 2 * math.pi)
+        self._scale_ang = [*self._scale_ang, (float(raw[2]), turn)][-self.SCALE_WINDOW:]
+        odometry_step = self.calibrated_step(raw)
         c, s = math.cos(odometry_step[2]), math.sin(odometry_step[2])
         dx, dy = matched_step[0] - odometry_step[0], matched_step[1] - odometry_step[1]
         ex, ey = c * dx + s * dy, -s * dx + c * dy

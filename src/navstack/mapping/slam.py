@@ -726,8 +726,9 @@ class SlamMapper:
             self._last_placed = node.node_id
         if (p.use_odometry_edges and matched and not restarting and not check.suspect
                 and odom is not None and np.isfinite(prev_odom).all()):
-            step = se2_between(prev_odom, odom)
-            self._odometry_noise.observe(step, se2_between(self._poses[prev_id], pose))
+            self._odometry_noise.observe(se2_between(prev_odom, odom),
+                                         se2_between(self._poses[prev_id], pose))
+            step = self._odometry_noise.calibrated_step(se2_between(prev_odom, odom))
             odo_cov = self._odometry_noise.covariance(step)
             if self._odometry_noise.calibrated and _degenerate(cov, self.match_unit()) and float(
                     np.max(np.linalg.eigvals(
@@ -736,8 +737,13 @@ class SlamMapper:
                 # (along a corridor, in an open hall: Zhang, Kaess & Singh, ICRA 2016)
                 # and the odometry carries at least a tenth of the match's information
                 # in the weak direction.  On a well-conditioned match it would only
-                # bias the result with the odometry's (often heavy-tailed) error.
-                self.graph.add_edge(prev_id, node.node_id, step, np.linalg.inv(odo_cov),
+                # bias the result with the odometry's (often heavy-tailed) error.  Only
+                # the weak directions take the odometry's information (Zhang et al.'s
+                # solution remapping): the scan fixes the others -- in a corridor the
+                # heading and the lateral position -- far better than wheels do.
+                self.graph.add_edge(prev_id, node.node_id, step,
+                                    _weak_part(np.asarray(np.linalg.inv(odo_cov), float), cov,
+                                               self.match_unit()),
                                     robust_kernel=1.0, kernel="cauchy")
                 self.stats.odometry_edges += 1
         self.graph.update()
@@ -1081,3 +1087,21 @@ def _degenerate(cov: FloatArray, unit: FloatArray, ratio: float = 3.0) -> bool:
     scaled = cov / (unit[:, None] * unit[None, :])
     w = np.linalg.eigvalsh(0.5 * (scaled + scaled.T))
     return bool(w[-1] >= ratio * ratio * max(float(w[0]), 1e-12))
+
+
+def _weak_part(information: FloatArray, cov: FloatArray, unit: FloatArray,
+               ratio: float = 3.0) -> FloatArray:
+    """``information`` restricted to the weak directions of a match covariance ``cov``
+    (those at least ``ratio`` times longer than its strongest, measured in the perfect
+    match's deviations ``unit``): ``P I P`` with ``P`` the projector on them, plus a
+    negligible information (a thousand ``unit`` deviations) elsewhere so that it stays
+    positive definite."""
+    s_inv = 1.0 / unit
+    scaled = cov * s_inv[:, None] * s_inv[None, :]
+    w, v = np.linalg.eigh(0.5 * (scaled + scaled.T))
+    weak = v[:, w >= ratio * ratio * max(float(w[0]), 1e-12)]
+    proj = weak @ weak.T
+    info_scaled = information * unit[:, None] * unit[None, :]
+    part = proj @ info_scaled @ proj
+    part = 0.5 * (part + part.T) * s_inv[:, None] * s_inv[None, :]
+    return part + np.diag(1.0 / (1e3 * unit) ** 2)
