@@ -40,6 +40,12 @@ def test_scale_needs_enough_motion_and_is_clamped() -> None:
     for _ in range(20):
         noise.observe(np.array([0.3, 0.0, 0.0]), np.array([0.6, 0.0, 0.0]))
     assert noise.scale()[0] == OdometryNoise.SCALE_LIMITS[1]
+    # steps compared with degenerate matches teach the noise, not the scale
+    other = OdometryNoise(SlamParams())
+    for _ in range(30):
+        other.observe(np.array([0.3, 0.0, 0.0]), np.array([0.6, 0.0, 0.0]), scale=False)
+    assert other.scale() == (1.0, 1.0)
+    assert other.factors()[0] > 0.5
 
 
 def test_odometry_edge_informs_only_the_weak_direction_of_the_match() -> None:

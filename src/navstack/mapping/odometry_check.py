@@ -113,7 +113,9 @@ class OdometryNoise:
     would add up wherever the matches leave a direction open (a long aisle, an open
     hall) instead of averaging it out.  The least-squares scale of the matched against
     the odometry translation (along the odometry's motion) and rotation over the last
-    ``SCALE_WINDOW`` compared steps (:meth:`scale`, clamped to 0.8 .. 1.25, 1 until the
+    ``SCALE_WINDOW`` steps compared with a well-conditioned match (the mapper passes
+    ``scale=False`` for a degenerate one, whose along-corridor estimate is the uncertain
+    part) (:meth:`scale`, clamped to 0.8 .. 1.25, 1 until the
     steps add up to ``SCALE_MINIMUM`` m^2 / rad^2) corrects every step before it becomes
     an edge (:meth:`calibrated_step`, Borenstein & Feng's systematic odometry errors), and
     the noise is learned from what is left."""
@@ -151,15 +153,18 @@ class OdometryNoise:
         return np.array([s_lin * odometry_step[0], s_lin * odometry_step[1],
                          s_ang * odometry_step[2]])
 
-    def observe(self, odometry_step: FloatArray, matched_step: FloatArray) -> None:
-        """Record one odometry step against the matched step of the same two scans."""
+    def observe(self, odometry_step: FloatArray, matched_step: FloatArray,
+                scale: bool = True) -> None:
+        """Record one odometry step against the matched step of the same two scans
+        (for the scale too unless ``scale`` is false)."""
         raw = np.asarray(odometry_step, dtype=np.float64)
         dist = math.hypot(raw[0], raw[1])
-        if dist > 1e-6:
+        if scale and dist > 1e-6:
             along = (float(matched_step[0]) * raw[0] + float(matched_step[1]) * raw[1]) / dist
             self._scale_lin = [*self._scale_lin, (dist, along)][-self.SCALE_WINDOW:]
-        turn = math.remainder(float(matched_step[2]), 2 * math.pi)
-        self._scale_ang = [*self._scale_ang, (float(raw[2]), turn)][-self.SCALE_WINDOW:]
+        if scale:
+            turn = math.remainder(float(matched_step[2]), 2 * math.pi)
+            self._scale_ang = [*self._scale_ang, (float(raw[2]), turn)][-self.SCALE_WINDOW:]
         odometry_step = self.calibrated_step(raw)
         c, s = math.cos(odometry_step[2]), math.sin(odometry_step[2])
         dx, dy = matched_step[0] - odometry_step[0], matched_step[1] - odometry_step[1]
