@@ -173,3 +173,39 @@ def test_no_pull_back_along_a_long_corridor() -> None:
     assert heading < 0.5  # 0.30 deg
     with_margin, _ = _corridor_drive(0.35)
     assert with_margin > along
+
+
+def _clipped(world, pose, clip: float) -> np.ndarray:
+    ranges = np.asarray(_ranges(world, pose), dtype=float).copy()
+    ranges[ranges > clip] = np.inf
+    return ranges
+
+
+@pytest.mark.parametrize("ratio", [0.0, 0.8])
+def test_loop_closure_from_a_partial_view_is_dropped_below_the_response_ratio(
+        office, ratio: float) -> None:
+    """A corridor mapped with scans that see 2 m, revisited with a 12 m scan: most of its
+    points fall where the submap never looked, its fine response is 0.70 against the
+    links' typical 0.88, and its measurement is 2.8 cm off the true relative pose.
+    ``loop_match_minimum_response_ratio`` 0.8 drops it (counted as weak); 0 keeps it."""
+    params = SlamParams(minimum_time_interval=0.0, map_start_pose=[1.0, 7.5, 0.0],
+                        do_loop_closing=False, loop_match_minimum_response_ratio=ratio)
+    mapper = SlamMapper(params, LASER)
+    for k in range(12):
+        mapper.process_scan(_clipped(office, (1.0 + 0.5 * k, 7.5, 0.0), 2.0),
+                            (0.5 * k, 0.0, 0.0), float(k))
+    mapper.process_scan(_clipped(office, (3.2, 7.5, 0.0), 12.0), (2.2, 0.0, 0.0), 20.0)
+    node = len(mapper.nodes) - 1
+    loops = mapper.submaps
+    submap = loops.submaps.complete()[0]
+    poses, covs = mapper._poses, mapper._covs
+    candidate = loops._candidate(submap, poses[node], covs[node], poses, covs, 0.0)
+    closure = loops.match(node, candidate, poses)
+    assert mapper.typical_response() == pytest.approx(0.877, abs=0.01)
+    if ratio == 0.0:
+        assert closure is not None and closure.response == pytest.approx(0.70, abs=0.01)
+        truth_x = 3.2 - (1.0 + 0.5 * submap.anchor)  # the node in the anchor's frame
+        assert closure.measurement[0] - truth_x == pytest.approx(0.028, abs=0.005)
+        assert mapper.stats.loop_weak == 0
+    else:
+        assert closure is None and mapper.stats.loop_weak == 1

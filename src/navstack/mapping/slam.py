@@ -112,6 +112,7 @@ class SlamStats:
     loop_attempts: int = 0
     loop_ambiguous: int = 0
     loop_implausible: int = 0
+    loop_weak: int = 0
     loop_corridor: int = 0
     loop_rejected_outliers: int = 0
     loop_unconfirmed: int = 0
