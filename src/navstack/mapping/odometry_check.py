@@ -117,8 +117,10 @@ class OdometryNoise:
     ``scale=False`` for a degenerate one, whose along-corridor estimate is the uncertain
     part) (:meth:`scale`, clamped to 0.8 .. 1.25, 1 until the
     steps add up to ``SCALE_MINIMUM`` m^2 / rad^2) corrects every step before it becomes
-    an edge (:meth:`calibrated_step`, Borenstein & Feng's systematic odometry errors), and
-    the noise is learned from what is left."""
+    an edge (:meth:`calibrated_step`, Borenstein & Feng's systematic odometry errors).
+    The noise is still learned from the raw steps: the predictions, the link's search
+    window and the free-space margin rest on the raw odometry, and an edge's covariance
+    stays conservative."""
 
     WINDOW = 50
     SCALE_WINDOW = 200
@@ -165,7 +167,6 @@ class OdometryNoise:
         if scale:
             turn = math.remainder(float(matched_step[2]), 2 * math.pi)
             self._scale_ang = [*self._scale_ang, (float(raw[2]), turn)][-self.SCALE_WINDOW:]
-        odometry_step = self.calibrated_step(raw)
         c, s = math.cos(odometry_step[2]), math.sin(odometry_step[2])
         dx, dy = matched_step[0] - odometry_step[0], matched_step[1] - odometry_step[1]
         ex, ey = c * dx + s * dy, -s * dx + c * dy
