@@ -136,3 +136,43 @@ def test_straightened_plan_past_a_person_into_a_door_has_one_s() -> None:
     near = np.hypot(xy[:, 0] - 12.6, xy[:, 1] - 7.9).min()
     assert near >= np.hypot(smoothed[:, 0] - 12.6, smoothed[:, 1] - 7.9).min() - 0.05
     assert costs(xy).max() <= costs(smoothed).max() * 1.15
+
+
+def test_straightened_plan_out_of_a_door_past_a_person_turns_one_way() -> None:
+    """The office, a person standing at room F's door mouth on the corridor side, a plan
+    from inside the room (next to the jamb) to room A: NavFn's smoothed plan goes east,
+    south through the door, swings 18 deg east of the person and turns west (3 curvature
+    sign changes in 12.8 m, 2.3 per 10 m).  The chord past the swing crosses the door
+    nearer its jamb than the plan does; straightened, the door's line is carried on past
+    the person to where the plan turns west (one corner instead of the swing and the
+    turn): 1 sign change, no costlier and no longer than the smoothed plan."""
+    from scipy import ndimage
+
+    from navstack.sim.worlds import load_world
+
+    w = load_world("office")
+    res = w.resolution
+    yy, xx = np.mgrid[0:w.occupied.shape[0], 0:w.occupied.shape[1]]
+    person = np.hypot(w.origin_x + (xx + 0.5) * res - 9.45,
+                      w.origin_y + (yy + 0.5) * res - 8.0) <= 0.12
+    occ = w.occupied | person
+    d = ndimage.distance_transform_edt(~occ) * res
+    cost = np.where(d <= 0.27, 253, np.where(d <= 0.7, np.floor(252 * np.exp(-2.5 * (d - 0.27))),
+                                             0))
+    cost[occ] = 254
+    cm = Costmap2D.from_array(cost.astype(np.uint8), res, w.origin_x, w.origin_y)
+    start, goal = Pose2D(9.6, 9.11, -1.07), Pose2D(2.5, 4.0, 0.0)
+    smoothed = NavfnPlanner().plan(start, goal, cm).as_array()[:, :2]
+    xy = NavfnPlanner(NavfnParams(straighten_deviation=0.15)).plan(start, goal, cm)
+    xy = xy.as_array()[:, :2]
+    assert curvature_sign_changes(smoothed) == 3
+    assert curvature_sign_changes(xy) == 1
+    assert path_length(xy) <= path_length(smoothed)
+
+    def costs(p: np.ndarray) -> np.ndarray:
+        mx, my, _ = cm.world_to_map_array(p)
+        return cm.data[my, mx]
+
+    assert costs(xy).max() <= costs(smoothed).max()
+    near = np.hypot(xy[:, 0] - 9.45, xy[:, 1] - 8.0).min()
+    assert near >= np.hypot(smoothed[:, 0] - 9.45, smoothed[:, 1] - 8.0).min() - 0.05

@@ -151,14 +151,61 @@ def test_straighten_drops_a_kink_against_both_corners_around_it() -> None:
     assert out[0].tolist() == xy[0].tolist() and out[-1].tolist() == xy[-1].tolist()
 
 
-def test_straighten_keeps_a_kink_the_costmap_requires() -> None:
-    """The same leg with a box under the chord past the kink: that chord would cross
-    cells costlier than its ends, so the kink stays."""
+def _line_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance of ``p`` from the infinite line through ``a`` and ``b``."""
+    u = (b - a) / np.hypot(*(b - a))
+    return float(abs(u[0] * (p[1] - a[1]) - u[1] * (p[0] - a[0])))
+
+
+def test_straighten_merges_a_kink_into_the_next_corner_when_its_chord_is_blocked() -> None:
+    """A box under the chord past the kink: the segment before the kink is carried on
+    until it meets the segment after the next corner (kink and corner become one corner,
+    the plan's directions before and after kept), clear of the box."""
     from navstack.planning.path_utils import straighten
 
     corners, xy = _leg()
     data = np.zeros((140, 220), dtype=np.uint8)
     data[46:50, 86:98] = 254  # x 4.3-4.9, y 2.3-2.5: between the kink and its chord
+    cm = Costmap2D.from_array(data, 0.05)
+    out = straighten(xy, cm, 0.05)
+    assert curvature_sign_changes(out) == 0
+    assert _distance_to_polyline(corners[2], out) <= 0.05  # still through the kink's place
+    assert _distance_to_polyline(corners[1], out) <= 0.05  # the first corner stayed
+    assert _line_distance(out[-2], corners[3], corners[4]) < 1e-6  # on the door's line
+    assert _samples_cost(out, cm).max() == 0
+    assert path_length(out) <= path_length(xy)
+
+
+def test_straighten_merges_a_kink_into_the_previous_corner() -> None:
+    """The leg driven the other way with a second box under the first merge's segment:
+    the segment before the previous corner is carried on instead (the door's line kept,
+    the kink's leg carried back to meet it), clear of both boxes."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    data = np.zeros((140, 220), dtype=np.uint8)
+    data[46:50, 86:98] = 254  # under the chord past the kink
+    data[44:47, 138:142] = 254  # x 6.9-7.1, y 2.2-2.35: under the next corner's merge
+    cm = Costmap2D.from_array(data, 0.05)
+    back = xy[::-1].copy()
+    out = straighten(back, cm, 0.05)
+    assert curvature_sign_changes(back) == 2 and curvature_sign_changes(out) == 0
+    assert _distance_to_polyline(corners[2], out) <= 0.05
+    assert _line_distance(out[1], corners[4], corners[3]) < 1e-6  # on the door's line
+    assert _samples_cost(out, cm).max() == 0
+    assert out[0].tolist() == back[0].tolist() and out[-1].tolist() == back[-1].tolist()
+
+
+def test_straighten_keeps_a_kink_the_costmap_requires() -> None:
+    """The same leg with boxes under the chord past the kink and under both merges of
+    the kink with a corner beside it: every replacement would cross cells costlier than
+    its ends, so the kink stays."""
+    from navstack.planning.path_utils import straighten
+
+    corners, xy = _leg()
+    data = np.zeros((140, 220), dtype=np.uint8)
+    data[46:50, 86:98] = 254  # x 4.3-4.9, y 2.3-2.5: between the kink and its chord
+    data[59:62, 58:62] = 254  # x 2.9-3.1, y 2.95-3.1: the kink's leg carried on
     cm = Costmap2D.from_array(data, 0.05)
     out = straighten(xy, cm, 0.05)
     assert curvature_sign_changes(out) == 2

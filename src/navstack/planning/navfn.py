@@ -80,10 +80,11 @@ class NavfnParams(Params):
     straighten_deviation: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     """[m] navstack, with ``smooth_path``: then replace every stretch of the smoothed path
     that a straight chord within this distance of it can replace, never through a cell
-    costlier than the chord's ends, and drop the small kinks that turn against both
-    corners around them (:func:`~navstack.planning.path_utils.straighten`; the packaged
-    nav2_params.yaml sets 0.15, which removes the walker-detour S-bends:
-    docs/command_path.md, "Motion quality"); 0 keeps the smoothed path (Nav2)."""
+    costlier than the chord's ends, and replace the small kinks that turn against both
+    corners around them by a chord or by merging them into a corner beside them
+    (:func:`~navstack.planning.path_utils.straighten`; the packaged nav2_params.yaml
+    sets 0.15, which removes the walker-detour S-bends: docs/command_path.md, "Motion
+    quality"); 0 keeps the smoothed path (Nav2)."""
 
 
 @register_planner("Navfn", nav2="nav2_navfn_planner::NavfnPlanner")

@@ -295,11 +295,42 @@ def _turn(xy: NDArray[np.float64], a: int, b: int, c: int) -> float:
 
 
 @nb.njit(cache=True)
-def _drop_wobbles(xy: NDArray[np.float64], cost: NDArray[np.int64], data: NDArray[np.uint8],
-                  ox: float, oy: float, res: float, unknown_cost: int,
-                  min_turn: float) -> NDArray[np.int64]:
-    """Indices of the polyline ``xy`` kept by :func:`straighten`'s wobble pass."""
-    n = xy.shape[0]
+def _cost_limit(cost_a: int, cost_b: int, stretch: int) -> int:
+    """Highest cell cost a replacement between points of cost ``cost_a`` and ``cost_b``
+    may cross when the stretch of plan it replaces crosses ``stretch`` at most: the
+    costlier end + 15 % (one cell's rise of the inflation), or the stretch's own
+    highest cost if that is higher; never inscribed (-1: no replacement)."""
+    ends = max(cost_a, cost_b)
+    if ends >= INSCRIBED_INFLATED_OBSTACLE:
+        return -1
+    return min(max(ends + ends * 3 // 20, stretch), INSCRIBED_INFLATED_OBSTACLE - 1)
+
+
+@nb.njit(cache=True)
+def _meet(p0: NDArray[np.float64], p1: NDArray[np.float64], q0: NDArray[np.float64],
+          q1: NDArray[np.float64]) -> tuple[float, float, float, float]:
+    """Where the line through ``p0 -> p1`` meets the line through ``q0 -> q1``: the point
+    and its distances along each from ``p1`` and ``q0`` [m] (signed; nan if parallel)."""
+    ux, uy = p1[0] - p0[0], p1[1] - p0[1]
+    vx, vy = q1[0] - q0[0], q1[1] - q0[1]
+    lu, lv = math.hypot(ux, uy), math.hypot(vx, vy)
+    den = ux * vy - uy * vx
+    if lu <= 0.0 or lv <= 0.0 or abs(den) <= 1e-9 * lu * lv:
+        return math.nan, math.nan, math.nan, math.nan
+    wx, wy = q0[0] - p1[0], q0[1] - p1[1]
+    s = (wx * vy - wy * vx) / den  # along p0 -> p1 from p1, in units of |u|
+    t = (wx * uy - wy * ux) / den  # along q0 -> q1 from q0, in units of |v|
+    return p1[0] + s * ux, p1[1] + s * uy, s * lu, t * lv
+
+
+@nb.njit(cache=True)
+def _drop_wobbles(xy: NDArray[np.float64], data: NDArray[np.uint8], ox: float, oy: float,
+                  res: float, unknown_cost: int,
+                  min_turn: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The polyline ``xy`` after :func:`straighten`'s wobble pass: its points (some
+    moved) and the indices of those kept."""
+    pts = xy.copy()
+    n = pts.shape[0]
     alive = np.ones(n, dtype=np.bool_)
     changed = True
     while changed:
@@ -309,24 +340,79 @@ def _drop_wobbles(xy: NDArray[np.float64], cost: NDArray[np.int64], data: NDArra
         # vertices idx[1..m-2] have a turn; a wobble needs a turning vertex on each side
         for q in range(2, m - 2):
             a, b, c, d, e = idx[q - 2], idx[q - 1], idx[q], idx[q + 1], idx[q + 2]
-            t_prev = _turn(xy, a, b, c)
-            t = _turn(xy, b, c, d)
-            t_next = _turn(xy, c, d, e)
+            t_prev = _turn(pts, a, b, c)
+            t = _turn(pts, b, c, d)
+            t_next = _turn(pts, c, d, e)
             if abs(t) < min_turn or abs(t_prev) < min_turn or abs(t_next) < min_turn:
                 continue
             if not (t * t_prev < 0.0 and t * t_next < 0.0
                     and abs(t) < abs(t_prev) and abs(t) < abs(t_next)):
                 continue
-            bound = max(cost[b], cost[d])
-            if bound >= INSCRIBED_INFLATED_OBSTACLE:
-                continue
-            bound = min(bound + bound * 3 // 20, INSCRIBED_INFLATED_OBSTACLE - 1)
-            if _chord_max_cost(xy[b, 0], xy[b, 1], xy[d, 0], xy[d, 1], data, ox, oy, res,
-                               unknown_cost) <= bound:
+            cab = _chord_max_cost(pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], data, ox, oy,
+                                  res, unknown_cost)
+            cbc = _chord_max_cost(pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1], data, ox, oy,
+                                  res, unknown_cost)
+            ccd = _chord_max_cost(pts[c, 0], pts[c, 1], pts[d, 0], pts[d, 1], data, ox, oy,
+                                  res, unknown_cost)
+            cde = _chord_max_cost(pts[d, 0], pts[d, 1], pts[e, 0], pts[e, 1], data, ox, oy,
+                                  res, unknown_cost)
+            cost_a = _chord_max_cost(pts[a, 0], pts[a, 1], pts[a, 0], pts[a, 1], data, ox,
+                                     oy, res, unknown_cost)
+            cost_b = _chord_max_cost(pts[b, 0], pts[b, 1], pts[b, 0], pts[b, 1], data, ox,
+                                     oy, res, unknown_cost)
+            cost_d = _chord_max_cost(pts[d, 0], pts[d, 1], pts[d, 0], pts[d, 1], data, ox,
+                                     oy, res, unknown_cost)
+            cost_e = _chord_max_cost(pts[e, 0], pts[e, 1], pts[e, 0], pts[e, 1], data, ox,
+                                     oy, res, unknown_cost)
+            # (1) the chord b -> d
+            lim = _cost_limit(cost_b, cost_d, max(cbc, ccd))
+            if lim >= 0 and _chord_max_cost(pts[b, 0], pts[b, 1], pts[d, 0], pts[d, 1], data,
+                                            ox, oy, res, unknown_cost) <= lim:
                 alive[c] = False
                 changed = True
                 break
-    return np.nonzero(alive)[0]
+            # (2) b -> c carried on to where it meets d -> e: c and d become one corner
+            best = INSCRIBED_INFLATED_OBSTACLE
+            which = 0
+            bx, by = 0.0, 0.0
+            old = (math.hypot(pts[c, 0] - pts[b, 0], pts[c, 1] - pts[b, 1])
+                   + math.hypot(pts[d, 0] - pts[c, 0], pts[d, 1] - pts[c, 1]))
+            x, y, s, u = _meet(pts[b], pts[c], pts[d], pts[e])
+            de = math.hypot(pts[e, 0] - pts[d, 0], pts[e, 1] - pts[d, 1])
+            lim = _cost_limit(cost_b, cost_e, max(cbc, ccd, cde))
+            if s > 0.0 and u < de and lim >= 0:
+                new = math.hypot(x - pts[b, 0], y - pts[b, 1]) + math.hypot(pts[e, 0] - x,
+                                                                            pts[e, 1] - y)
+                if new <= old + de:
+                    worst = max(_chord_max_cost(pts[b, 0], pts[b, 1], x, y, data, ox, oy, res,
+                                                unknown_cost),
+                                _chord_max_cost(x, y, pts[e, 0], pts[e, 1], data, ox, oy, res,
+                                                unknown_cost))
+                    if worst <= lim and worst < best:
+                        best, which, bx, by = worst, 2, x, y
+            # (3) a -> b carried on to where it meets c -> d: b and c become one corner
+            x, y, s, u = _meet(pts[a], pts[b], pts[c], pts[d])
+            ab = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
+            lim = _cost_limit(cost_a, cost_d, max(cab, cbc, ccd))
+            if s > -ab and u < 0.0 and lim >= 0:
+                new = math.hypot(x - pts[a, 0], y - pts[a, 1]) + math.hypot(pts[d, 0] - x,
+                                                                            pts[d, 1] - y)
+                if new <= old + ab:
+                    worst = max(_chord_max_cost(pts[a, 0], pts[a, 1], x, y, data, ox, oy, res,
+                                                unknown_cost),
+                                _chord_max_cost(x, y, pts[d, 0], pts[d, 1], data, ox, oy, res,
+                                                unknown_cost))
+                    if worst <= lim and worst < best:
+                        best, which, bx, by = worst, 3, x, y
+            if which == 0:
+                continue
+            moved = d if which == 2 else b
+            pts[moved, 0] = bx
+            pts[moved, 1] = by
+            alive[c] = False
+            changed = True
+            break
+    return pts, np.nonzero(alive)[0]
 
 
 def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float,
@@ -346,10 +432,18 @@ def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float
 
     Then the wobbles go: a vertex that turns against both its neighbours, by less than
     either of them (a kink of a few degrees left between a walker detour's return and the
-    turn into a door, say), is dropped when the chord between its neighbours passes the
-    same cost rule, whatever its deviation -- the deviation bound keeps the corners the
-    planner made, and a turn smaller than and opposite to both corners around it is not
-    one (each such kink is two curvature sign changes)."""
+    turn into a door, say; a swing wide of a person at a door's mouth between the turn
+    into the door and the turn out of it), is replaced, whatever its deviation -- the
+    deviation bound keeps the corners the planner made, and a turn smaller than and
+    opposite to both corners around it is not one (each such kink is two curvature sign
+    changes).  First choice, the chord between its neighbours; else the segment before it
+    carried on until it meets the segment after the next corner, or the segment after it
+    carried back until it meets the segment before the previous corner (the kink and that
+    corner become one corner, the plan's directions before and after kept; the less
+    costly of the two, never longer than the stretch it replaces).  A replacement passes
+    the cost rule above or crosses no cell costlier than the stretch it replaces does:
+    out of a door every chord is costlier than its ends in the rooms, and the kink
+    stayed."""
     xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) < 3:
         return xy.copy()
@@ -361,7 +455,6 @@ def straighten(xy: NDArray[np.float64], costmap: Costmap2D, max_deviation: float
     keep = _straighten(xy, cost, costmap.data, costmap.origin_x, costmap.origin_y,
                        costmap.resolution, unknown_cost, float(max_deviation))
     kept = np.ascontiguousarray(xy[keep])
-    calm = _drop_wobbles(kept, np.ascontiguousarray(cost[keep]), costmap.data,
-                         costmap.origin_x, costmap.origin_y, costmap.resolution, unknown_cost,
-                         WOBBLE_MIN_TURN)
-    return kept[calm]
+    pts, calm = _drop_wobbles(kept, costmap.data, costmap.origin_x, costmap.origin_y,
+                              costmap.resolution, unknown_cost, WOBBLE_MIN_TURN)
+    return pts[calm]
