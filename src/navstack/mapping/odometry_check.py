@@ -150,10 +150,14 @@ class OdometryNoise:
                 self._fit(self._scale_ang, self.SCALE_MINIMUM))
 
     def calibrated_step(self, odometry_step: FloatArray) -> FloatArray:
-        """``odometry_step`` with its translation and rotation scaled by :meth:`scale`."""
-        s_lin, s_ang = self.scale()
+        """``odometry_step`` with its translation scaled by :meth:`scale`.  The rotation
+        is left as it is: rescaled by the learned rotation scale, the office route with
+        worn odometry (a 6 % gyro scale error, 6 m lidar) mapped to ATE 0.050 m / IoU
+        0.80 instead of 0.023 / 0.97 (not understood yet; the rotation scale is still
+        reported by :meth:`scale`)."""
+        s_lin, _ = self.scale()
         return np.array([s_lin * odometry_step[0], s_lin * odometry_step[1],
-                         s_ang * odometry_step[2]])
+                         float(odometry_step[2])])
 
     def observe(self, odometry_step: FloatArray, matched_step: FloatArray,
                 scale: bool = True) -> None:
