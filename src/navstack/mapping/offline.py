@@ -83,7 +83,8 @@ __all__ = ["LOG_PROFILE", "OfflineResult", "OfflineSlamError", "Progress", "Scan
 LOG_PROFILE: dict[str, Any] = {"minimum_travel_distance": 0.3, "minimum_travel_heading": 0.3,
                                "minimum_time_interval": 0.0, "match_skipped_scans": True,
                                "loop_search_node_interval": 2, "dynamic_point_margin": 0.0,
-                               "loop_match_minimum_response_ratio": 0.0}
+                               "loop_match_minimum_response_ratio": 0.0,
+                               "odometry_scale_correction": True}
 #: Readings below this are not returns (CARMEN writes 0 for "no echo" on some lasers).
 LASER_RANGE_MIN = 0.01
 #: How many skipped lines the summary lists one by one (all are counted).

@@ -746,7 +746,9 @@ class SlamMapper:
             self._odometry_noise.observe(se2_between(prev_odom, odom),
                                          se2_between(self._poses[prev_id], pose),
                                          scale=not degenerate)
-            step = self._odometry_noise.calibrated_step(se2_between(prev_odom, odom))
+            step = se2_between(prev_odom, odom)
+            if p.odometry_scale_correction:
+                step = self._odometry_noise.calibrated_step(step)
             odo_cov = self._odometry_noise.covariance(step)
             if self._odometry_noise.calibrated and degenerate and float(
                     np.max(np.linalg.eigvals(

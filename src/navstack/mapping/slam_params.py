@@ -139,6 +139,10 @@ class SlamParams(Params):
     # wide search's radius limits [m] and the response ratio the local match must keep
     # against it (mapping/odometry_check.py, mapping/recovery.py)
     use_odometry_edges: bool = True
+    # navstack: rescale an odometry edge's translation by the scale learned from
+    # well-conditioned matches (odometry_check.OdometryNoise); the log profile turns it
+    # on -- online it made the worn-odometry office route worse (docs/mapping.md)
+    odometry_scale_correction: bool = False
     odometry_linear_error: float = Field(0.05, ge=0.0)
     odometry_angular_error: float = Field(0.05, ge=0.0)
     odometry_maximum_speed: float = Field(1.0, gt=0.0)
