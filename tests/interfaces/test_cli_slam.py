@@ -81,6 +81,7 @@ def test_params_file_applies_over_log_profile(tmp_path: Path) -> None:
                                  "loop_search_node_interval": 2, "dynamic_point_margin": 0.0,
                                  "loop_match_minimum_response_ratio": 0.0,
                                  "odometry_scale_correction": True,
+                                 "odometry_edge_weak_directions": True,
                                  "use_scan_matching": False, "resolution": 0.1}
     assert "resolution: 0.1" in (out / "map.yaml").read_text()
 

@@ -84,7 +84,8 @@ LOG_PROFILE: dict[str, Any] = {"minimum_travel_distance": 0.3, "minimum_travel_h
                                "minimum_time_interval": 0.0, "match_skipped_scans": True,
                                "loop_search_node_interval": 2, "dynamic_point_margin": 0.0,
                                "loop_match_minimum_response_ratio": 0.0,
-                               "odometry_scale_correction": True}
+                               "odometry_scale_correction": True,
+                               "odometry_edge_weak_directions": True}
 #: Readings below this are not returns (CARMEN writes 0 for "no echo" on some lasers).
 LASER_RANGE_MIN = 0.01
 #: How many skipped lines the summary lists one by one (all are counted).

@@ -761,9 +761,10 @@ class SlamMapper:
                 # the weak directions take the odometry's information (Zhang et al.'s
                 # solution remapping): the scan fixes the others -- in a corridor the
                 # heading and the lateral position -- far better than wheels do.
-                self.graph.add_edge(prev_id, node.node_id, step,
-                                    _weak_part(np.asarray(np.linalg.inv(odo_cov), float), cov,
-                                               self.match_unit()),
+                odo_info = np.asarray(np.linalg.inv(odo_cov), float)
+                if p.odometry_edge_weak_directions:
+                    odo_info = _weak_part(odo_info, cov, self.match_unit())
+                self.graph.add_edge(prev_id, node.node_id, step, odo_info,
                                     robust_kernel=1.0, kernel="cauchy")
                 self.stats.odometry_edges += 1
         self.graph.update()

@@ -143,6 +143,9 @@ class SlamParams(Params):
     # well-conditioned matches (odometry_check.OdometryNoise); the log profile turns it
     # on -- online it made the worn-odometry office route worse (docs/mapping.md)
     odometry_scale_correction: bool = False
+    # navstack: an odometry edge informs only the match's weak directions (log profile
+    # on; online it made the office waypoint route fail two goals, docs/mapping.md)
+    odometry_edge_weak_directions: bool = False
     odometry_linear_error: float = Field(0.05, ge=0.0)
     odometry_angular_error: float = Field(0.05, ge=0.0)
     odometry_maximum_speed: float = Field(1.0, gt=0.0)
