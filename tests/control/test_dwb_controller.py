@@ -252,3 +252,24 @@ def test_debug_trajectory_details_scores_everything_and_agrees() -> None:
     assert ev_full.totals[best] == pytest.approx(
         sum(scores[n] * s for n, s in zip(ev_full.critic_names, ev_full.critic_scales,
                                           strict=True) if s != 0.0))
+
+
+def test_robot_inside_the_inscribed_band_drives_out() -> None:
+    """A robot whose cell is inscribed (a SLAM correction moved the wall beside it by a
+    cell) may still drive out along the plan: the distance critics' wave reaches its
+    cell.  It used to stop at the inscribed cells, and every sample was rejected as
+    "unreachable area", so the robot stood there until the goal failed."""
+    cm = empty_costmap()
+    rows = np.arange(cm.size_y) * cm.resolution + cm.origin_y + cm.resolution / 2
+    wall = np.where(rows < -0.15, LETHAL_OBSTACLE,
+                    np.where(rows < 0.05, INSCRIBED_INFLATED_OBSTACLE,
+                             np.where(rows < 0.5, 200, 0)))
+    cm.data[:] = wall[:, None].astype(np.uint8)
+    assert cm.data[50, 50] == INSCRIBED_INFLATED_OBSTACLE  # the robot's cell
+    path = Path.from_array(np.array([[x, min(0.4, x), 0.0] for x in np.arange(0.0, 2.0, 0.05)]),
+                           frame_id="odom")
+    dwb = DWBLocalPlanner()
+    cmd = dwb.compute(Pose2D(0.0, 0.0, 0.5), Twist2D(), path, cm)
+    assert cmd.vx > 0.0
+    best = dwb.last_evaluation.best_trajectory  # type: ignore[union-attr]
+    assert best is not None and best[-1, 1] > 0.0  # away from the wall

@@ -24,12 +24,20 @@ def test_slam_writes_files_and_json_metrics(tmp_path: Path) -> None:
     lines = res.stdout.splitlines()
     assert lines[0] == "6 scans processed (6 nodes), 0 loop closures, 0 match failures"
     assert lines[1].startswith("RPE over 5 consecutive pairs vs the corrected poses: trans ")
-    assert "ms/scan (median)" in lines[2] and "speedup" in lines[2]
-    assert lines[3] == f"wrote {', '.join(FILES)} to {out}"
+    assert lines[2].startswith("global: ATE ") and lines[2].endswith(
+        "no loop relations (the reference never comes back)")
+    assert lines[3] == ("odometry: 0 gaps in the log, 0 scans with missing or implausible "
+                        "odometry, 0 placed by the wide search")
+    assert "ms/scan (median)" in lines[4] and "speedup" in lines[4]
+    assert lines[5] == f"wrote {', '.join(FILES)} to {out}"
     report = json.loads(js.read_text())
-    assert set(report["metrics"]) == {"scans", "loop_closures", "trans_err_m",
-                                      "trans_err_std_m", "rot_err_deg", "rot_err_std_deg",
-                                      "ms_per_scan", "speedup"}
+    assert set(report["metrics"]) == {"scans", "nodes", "loop_closures", "odometry_events",
+                                      "recovered_scans", "trans_err_m", "trans_err_std_m",
+                                      "rot_err_deg", "rot_err_std_deg", "ate_m",
+                                      "odometry_ate_m", "ms_per_scan", "speedup"}
+    assert f"ATE {report['metrics']['ate_m']:.4f} m aligned" in lines[2]
+    assert report["scores"]["loop_relations"] is None
+    assert report["scores"]["ate_m"] < report["odometry_scores"]["ate_m"]
     assert report == json.loads((out / "summary.json").read_text())
     assert report["metrics"]["scans"] == 6
     assert report["metrics"]["trans_err_m"] < report["odometry_rpe"]["trans_mean_m"]
@@ -68,9 +76,13 @@ def test_params_file_applies_over_log_profile(tmp_path: Path) -> None:
     assert res.exit_code == 0, res.output
     assert res.stdout.splitlines()[0].startswith("4 scans processed (4 nodes)")
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["params"] == {"minimum_travel_distance": 0.0, "minimum_travel_heading": 0.0,
-                                 "minimum_time_interval": 0.0, "use_scan_matching": False,
-                                 "resolution": 0.1}
+    assert summary["params"] == {"minimum_travel_distance": 0.3, "minimum_travel_heading": 0.3,
+                                 "minimum_time_interval": 0.0, "match_skipped_scans": True,
+                                 "loop_search_node_interval": 2, "dynamic_point_margin": 0.0,
+                                 "loop_match_minimum_response_ratio": 0.0,
+                                 "odometry_scale_correction": True,
+                                 "odometry_edge_weak_directions": True,
+                                 "use_scan_matching": False, "resolution": 0.1}
     assert "resolution: 0.1" in (out / "map.yaml").read_text()
 
 

@@ -13,8 +13,11 @@ from navstack.mapping.map_metrics import (
     MapComparisonError,
     absolute_trajectory_error,
     align_se2,
+    loop_relation_error,
+    loop_relations,
     occupancy_iou,
     relative_pose_error,
+    trajectory_scores,
 )
 from navstack.mapping.occupancy import LogOddsGrid
 from navstack.sim.world import World
@@ -105,6 +108,29 @@ def test_unobserved_walls_do_not_count_and_completeness_is_the_observed_free_fra
     assert score.completeness == 0.5  # 9 of 18 interior rows
     assert score.iou == 1.0
     assert score.truth_cells == 18 + 2 * 9  # bottom face + lower halves of the sides
+
+
+def test_walls_no_return_hit_do_not_count_with_observed_points() -> None:
+    # a 1 m x 1 m room (cells 0..19) fully observed free by the estimate, but the
+    # estimate lacks the right wall (the laser never reached it)
+    v = np.zeros((20, 20), np.int8)
+    v[0, :] = v[-1, :] = v[:, 0] = v[:, -1] = 100
+    est_v = v.copy()
+    est_v[1:-1, -1] = 0
+    plain = occupancy_iou(grid(est_v), grid(v), tolerance_cells=0)
+    assert plain.false_negatives == 18  # the right wall's inner face
+    # returns only on the bottom, top and left walls (cell centres)
+    xs = (np.arange(1, 19) + 0.5) * RES
+    pts = np.vstack([np.column_stack([xs, np.full(18, 0.5 * RES)]),
+                     np.column_stack([xs, np.full(18, 19.5 * RES)]),
+                     np.column_stack([np.full(18, 0.5 * RES), xs])])
+    seen = occupancy_iou(grid(est_v), grid(v), tolerance_cells=0, observed_points=pts)
+    # the right wall's face is more than one cell from every return except next to the
+    # bottom and top walls' returns at x = 18.5 cells; the estimate's two corner cells
+    # beside its missing wall are its surface but no true face (false positives either way)
+    assert seen.false_negatives == 2
+    assert seen.false_positives == plain.false_positives == 2
+    assert seen.truth_cells == plain.truth_cells - 16
 
 
 def test_slam_style_thin_walls_match_thick_true_walls() -> None:
@@ -213,3 +239,56 @@ def test_trajectory_errors_name_the_problem() -> None:
         relative_pose_error(np.zeros((5, 3)), np.zeros((5, 3)), pairs=[[0, 9]])
     with pytest.raises(MapComparisonError, match="at least 2 poses"):
         relative_pose_error(np.zeros((1, 3)), np.zeros((1, 3)))
+
+
+# --- global consistency ------------------------------------------------------------------
+def corridor_twice(offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Down a 20 m corridor and back 0.5 m to the side; the estimate maps the way back
+    ``offset`` metres further out (a doubled corridor)."""
+    out = np.stack((np.arange(0.0, 20.0, 0.5), np.zeros(40), np.zeros(40)), axis=1)
+    back = np.stack((np.arange(19.5, -0.5, -0.5), np.full(40, 0.5), np.full(40, math.pi)),
+                    axis=1)
+    ref = np.vstack((out, back))
+    est = ref.copy()
+    est[40:, 1] += offset
+    return est, ref
+
+
+def test_loop_relations_are_revisits_far_along_the_path() -> None:
+    _, ref = corridor_twice(0.0)
+    pairs = loop_relations(ref, max_distance=1.0, min_path=10.0)
+    assert pairs.shape[1] == 2 and len(pairs) > 0
+    gap = np.abs(ref[pairs[:, 0], 0] - ref[pairs[:, 1], 0])
+    assert np.all(np.hypot(gap, 0.5) < 1.0)
+    # scans of one pass less than 1 m apart are less than 10 m apart along the path:
+    # every loop joins the way out (i < 40) with the way back (j >= 40)
+    assert np.all(pairs[:, 0] < 40) and np.all(pairs[:, 1] >= 40)
+    # at the far end the path between the two passes is only ~1 m: not a loop
+    assert not np.any(ref[pairs[:, 0], 0] > 17.0)
+    assert loop_relations(ref[:40]).shape == (0, 2)
+
+
+def test_doubled_corridor_shows_in_loop_relations_not_in_consecutive_pairs() -> None:
+    est, ref = corridor_twice(0.3)
+    scores = trajectory_scores(est, ref)
+    # one consecutive pair (39 -> 40) carries the whole offset
+    assert scores.rpe[1].trans_mean_m == pytest.approx(0.3 / 79, abs=1e-12)
+    assert scores.loops is not None
+    assert scores.loops.trans_mean_m == pytest.approx(0.3, abs=1e-12)
+    assert scores.loops.trans_max_m == pytest.approx(0.3, abs=1e-12)
+    assert scores.loops.rot_mean_deg == pytest.approx(0.0, abs=1e-9)
+    assert sorted(scores.rpe) == [1, 10]  # 80 poses: no separation of 100
+    # the aligned ATE splits the offset between the two passes
+    assert scores.ate.rms_m == pytest.approx(0.15, abs=1e-9)
+    exact = trajectory_scores(ref, ref)
+    assert exact.loops is not None and exact.loops.trans_mean_m < 1e-12
+    assert exact.ate.rms_m < 1e-12
+
+
+def test_loop_relation_error_is_none_without_revisits_and_inputs_are_checked() -> None:
+    line = np.stack((np.arange(30.0), np.zeros(30), np.zeros(30)), axis=1)
+    assert loop_relation_error(line, line) is None
+    with pytest.raises(MapComparisonError, match="max_distance must be > 0"):
+        loop_relations(line, max_distance=0.0)
+    with pytest.raises(MapComparisonError, match="separations must be >= 1"):
+        trajectory_scores(line, line, separations=(0,))

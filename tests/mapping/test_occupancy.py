@@ -285,3 +285,55 @@ def test_360_beam_scans_from_moving_origins_mark_ends_occupied_and_rays_free() -
     p = g.probability()
     assert np.mean([p[g.world_to_cell(*end)] > 0.5 for end in ends + o]) > 0.85
     assert all(p[g.world_to_cell(*(0.5 * end))] < 0.5 for end in ends[::10])
+
+
+def _room_ranges(sensor: tuple[float, float], ang: np.ndarray, rng: np.random.Generator,
+                 person: tuple[float, float, float] | None = None) -> np.ndarray:
+    """Ranges from ``sensor`` inside the room -3 < x < 3, -1 < y < 1 (walls' faces on cell
+    boundaries), 1 cm noise, optionally blocked by a round ``person`` (x, y, radius)."""
+    c, s = np.cos(ang), np.sin(ang)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (3.0 - sensor[0]) / c, (-3.0 - sensor[0]) / c)
+        ty = np.where(s > 0, (1.0 - sensor[1]) / s, (-1.0 - sensor[1]) / s)
+    r = np.minimum(np.abs(tx), np.abs(ty))
+    if person is not None:
+        px, py, pr = person[0] - sensor[0], person[1] - sensor[1], person[2]
+        b = c * px + s * py
+        disc = b * b - (px * px + py * py - pr * pr)
+        t = b - np.sqrt(np.maximum(disc, 0.0))
+        r = np.where((disc > 0) & (t > 0), np.minimum(r, t), r)
+    return r + rng.normal(0.0, 0.01, r.size)
+
+
+def test_clear_only_scans_erase_a_person_but_keep_a_wall_face_on_a_cell_boundary() -> None:
+    """The live SLAM map: node scans mark, the latest scans only clear.  A wall whose face
+    lies on a cell boundary (y = 1.0) is hit in both cells around it; scans that graze it
+    cross those cells, yet the wall must stay occupied (it was eroded to unknown and
+    exploration saw frontiers along it), while a person the node scans saw and the latest
+    scans see through is erased."""
+    rng = np.random.default_rng(3)
+    ang = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    g = LogOddsGrid(RES)
+    person = (1.5, 0.0, 0.2)
+    for k in range(6):  # node scans, the person standing there
+        sensor = (-1.0 + 0.4 * k, 0.75)
+        g.integrate_scans([[*sensor, 0.0]], [ScanData(_room_ranges(sensor, ang, rng, person),
+                                                      ang, 0.05, 10.0)])
+    before = g.to_occupancy_grid().data
+    face = g.world_to_cell(0.5, 0.99)
+    assert before[g.world_to_cell(0.5, 1.01)] == 100
+    assert before[g.world_to_cell(1.3, 0.0)] == 100  # the person's near side
+    live = g.copy()
+    for k in range(20):  # the latest scans: the person walked away
+        sensor = (0.5 + 0.02 * k, 0.75)
+        live.integrate_scans([[*sensor, 0.0]], [ScanData(_room_ranges(sensor, ang, rng), ang,
+                                                         0.05, 10.0)], clear_only=True)
+    after = live.to_occupancy_grid().data
+    assert after[g.world_to_cell(1.3, 0.0)] == 0  # erased
+    # the wall along the whole stretch the latest scans see keeps every occupied cell
+    for x in np.arange(-2.0, 2.0, RES):
+        for y in (0.99, 1.01):
+            cell = g.world_to_cell(float(x), y)
+            if before[cell] == 100:
+                assert after[cell] == 100, (x, y)
+    assert before[face] == 100 or before[g.world_to_cell(0.5, 1.01)] == 100

@@ -10,7 +10,7 @@ import gtsam
 import numpy as np
 import pytest
 
-from navstack.core.geometry import se2_compose
+from navstack.core.geometry import se2_between, se2_compose
 from navstack.mapping.g2o import G2oGraph, read_g2o, write_g2o
 from navstack.mapping.pose_graph import (
     PoseGraph,
@@ -229,3 +229,72 @@ def test_bad_input_raises_typed_errors() -> None:
                      [np.eye(3), [[1, 2, 0], [0, 1, 0], [0, 0, 1]]])
     assert str(info.value) == "edge 1 -> 0: information matrix is not symmetric"
     assert len(pg.edges.i) == 0 and pg.num_nodes == 2
+
+
+def test_marginal_covariance_equals_gtsams_batch_marginals() -> None:
+    """ISAM2's marginal of the newest node (what loop closure reads every scan) and of
+    an old one match gtsam.Marginals on the same graph at the same estimate."""
+    pg = PoseGraph()
+    info = np.diag([400.0, 900.0, 2500.0])
+    pg.add_node(0, [0.0, 0.0, 0.0])
+    for k in range(1, 12):
+        step = [1.0, 0.0, 0.3 if k % 3 else -0.2]
+        pg.add_node(k, se2_compose(pg.pose(k - 1), step))
+        pg.add_edge(k - 1, k, step, info)
+        pg.update()
+    open_chain = pg.marginal_covariance(11)
+    # a closure close to what the chain says (ISAM2 linearises at its own estimate)
+    closure = se2_compose(se2_between(pg.pose(2), pg.pose(11)), [0.02, -0.01, 0.005])
+    pg.add_edge(2, 11, closure, info)
+    for _ in range(3):
+        pg.update()
+    graph = gtsam.NonlinearFactorGraph()
+    values = gtsam.Values()
+    for k, p in enumerate(pg.poses()):
+        values.insert(k, gtsam.Pose2(*p))
+    graph.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(0, 0, 0),
+                                     gtsam.noiseModel.Isotropic.Sigma(3, SIGMA)))
+    e = pg.edges
+    for i, j, z, inf in zip(e.i, e.j, e.measurement, e.information, strict=True):
+        graph.add(gtsam.BetweenFactorPose2(int(i), int(j), gtsam.Pose2(*z),
+                                           gtsam.noiseModel.Gaussian.Information(inf)))
+    marginals = gtsam.Marginals(graph, values)
+    for node in (11, 5):
+        np.testing.assert_allclose(pg.marginal_covariance(node),
+                                   marginals.marginalCovariance(node), rtol=2e-2, atol=1e-6)
+    # the closure to node 2 shrinks the uncertainty at the end of the chain
+    assert np.all(np.diag(pg.marginal_covariance(11)) < 0.5 * np.diag(open_chain))
+
+
+def test_removed_outlier_edge_leaves_the_consistent_square() -> None:
+    info = np.diag([100.0, 100.0, 400.0])
+    pg = _square([1.0, 0.0, math.pi / 2], info)
+    bad = pg.add_edge(0, 2, [3.0, -2.0, 0.5], info, robust_kernel=1.0, kernel="dcs")
+    pg.optimize()
+    assert pg.edge_chi2(bad) > 100.0          # the outlier disagrees with everything
+    pg.remove_edge(bad)
+    for _ in range(5):
+        pg.update()
+    square = np.array([[0, 0, 0], [1, 0, math.pi / 2], [1, 1, math.pi], [0, 1, -math.pi / 2]])
+    err = se2_between(square, pg.poses())
+    np.testing.assert_allclose(err, 0.0, atol=1e-6)
+    assert len(pg.edges.i) == 4 and pg.to_dict()["edge_robust_type"].tolist() == [0] * 4
+    assert pg.edge_chi2(0) < 1e-9
+    with pytest.raises(PoseGraphError, match="edge 4 does not exist or was already removed"):
+        pg.remove_edge(bad)
+
+
+def test_edge_chi2_of_an_inconsistent_loop() -> None:
+    """Each of the four edges of the rotation loop takes 0.05 rad: chi2 = 100 * 0.05^2."""
+    pg = PoseGraph()
+    info = np.diag([50.0, 50.0, 100.0])
+    for k in range(4):
+        pg.add_node(k, [0.0, 0.0, 1.5 * k])
+    edges = [pg.add_edge(k, k + 1, [0.0, 0.0, math.pi / 2], info) for k in range(3)]
+    edges.append(pg.add_edge(3, 0, [0.0, 0.0, math.pi / 2 + 0.2], info, 2.0, "huber"))
+    assert edges == [0, 1, 2, 3]
+    pg.optimize()
+    for k in edges:
+        assert pg.edge_chi2(k) == pytest.approx(0.25, rel=1e-6)
+    with pytest.raises(PoseGraphError, match="robust kernel 'tukey' is not one of cauchy"):
+        pg.add_edge(0, 2, [0.0, 0.0, 0.0], info, 1.0, "tukey")  # type: ignore[arg-type]

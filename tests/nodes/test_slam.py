@@ -56,7 +56,12 @@ def test_mapping_the_corridor_tracks_the_true_pose_and_publishes_map_and_tf() ->
 
 
 def test_serialized_graph_reloads_and_continues_without_a_jump(tmp_path: Path) -> None:
-    """Acceptance 4: reload a saved graph, keep mapping; map -> odom moves < one cell."""
+    """Acceptance 4: reload a saved graph, keep mapping: no jump at the reload, and the
+    session goes on as if it had never been saved (map -> odom within a fifth of a cell
+    of an identical run without the reload).  map -> odom itself keeps moving by the
+    odometry's own drift (1% scale error: 4 cm over the 4 m driven after the reload)."""
+    ref_rt, _, ref_slam, _ = _slam_sim()
+    ref_rt.scheduler.run_until(25.0)
     rt, sim, slam, _ = _slam_sim()
     rt.scheduler.run_until(15.0)
     nodes_before = len(slam.mapper.nodes)
@@ -72,8 +77,8 @@ def test_serialized_graph_reloads_and_continues_without_a_jump(tmp_path: Path) -
     sim.advance()
     cell = slam.params.resolution
     assert math.hypot(*(after_load[:2] - before[:2])) < 1e-12
-    # the first scans after the reload are matched against the reloaded graph
-    assert math.hypot(*(slam.map_to_odom[:2] - before[:2])) <= cell
+    # the scans after the reload are matched against the reloaded graph
+    assert math.hypot(*(slam.map_to_odom[:2] - ref_slam.map_to_odom[:2])) <= 0.2 * cell
     assert len(slam.mapper.nodes) > nodes_before + 5
     assert _pose_error(sim, slam, rt) < 0.05
 

@@ -20,6 +20,7 @@ SUITE_MODULES: dict[str, str] = {
     "navigation": "navstack.benchmarks.navigation",
     "slam": "navstack.benchmarks.slam",
     "slam-params": "navstack.benchmarks.slam_params",
+    "slam-robust": "navstack.benchmarks.slam_robust",
     "localization": "navstack.benchmarks.localization",
     "recording": "navstack.benchmarks.recording",
     "mppi": "navstack.benchmarks.mppi",

@@ -8,7 +8,8 @@ compared with the world raster:
 
 * ``ate_m``: RMS absolute trajectory error, *without* alignment -- the SLAM map frame
   starts at the spawn pose, so it is the world frame;
-* ``map``: :func:`~navstack.mapping.map_metrics.occupancy_iou` at 0.05 m.
+* ``map``: :func:`~navstack.mapping.map_metrics.occupancy_iou` at 0.05 m of the map SLAM
+  saves (the graph's scans at their final poses).
 
 Used by ``navstack bench slam`` (``sim_ate_m``, ``sim_map_iou``) and the integration tests.
 """
@@ -26,7 +27,7 @@ from navstack.mapping.map_metrics import MapScore, absolute_trajectory_error, oc
 from navstack.mapping.slam import SlamStats
 from navstack.sim.robot import RobotParams
 
-__all__ = ["SimMappingResult", "run_sim_mapping"]
+__all__ = ["GoalRun", "SimMappingResult", "run_goal", "run_sim_mapping"]
 
 
 @dataclass
@@ -103,13 +104,52 @@ def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "offi
     zeros = np.zeros((len(est), 1))
     ate = absolute_trajectory_error(np.hstack([est, zeros]), np.hstack([tru, zeros]),
                                     align=False)
-    grid = slam_node.occupancy_grid()
-    if grid is None:
+    if slam_node.mapper is None or not slam_node.mapper.nodes:
         raise RuntimeError("SLAM produced no map: no scan was processed")
+    # the map SLAM saves (its graph's scans; /slam_toolbox/save_map), not the live one
+    grid = slam_node.mapper.build_map().to_occupancy_grid(crop=True)
     score = occupancy_iou(grid, stack.world.to_occupancy_grid())
-    assert slam_node.mapper is not None
     return SimMappingResult(ate.rms_m, ate.max_m, score, outcomes, slam_node.mapper.stats,
                             stack.now, stack.sim.sim.collisions, len(est))
+
+
+@dataclass(frozen=True)
+class GoalRun:
+    """One navigation goal from the spawn: final status, simulated time [s], the
+    navigator's recovery count, collisions and (SLAM) maps published."""
+
+    status: str
+    time_s: float
+    recoveries: int
+    collisions: int
+    map_updates: int
+
+
+def run_goal(goal: tuple[float, float, float], *, slam: bool, world: str = "office",
+             robot: str = "diff_drive", seed: int = 1, timeout_s: float = 300.0) -> GoalRun:
+    """Drive from the spawn to ``goal`` (x, y, yaw) with ``NavStack(world, robot,
+    localization="slam")`` (SLAM's live map) or, ``slam=False``, on the true map with
+    perfect localization."""
+    from navstack.core.msgs import Pose2D, PoseStamped
+    from navstack.interfaces.api import Navigator
+    from navstack.interfaces.stack import NavStack
+
+    stack = NavStack(world, robot, seed=seed,
+                     localization="slam" if slam else "perfect").start()
+    nav = Navigator(stack)
+    start = stack.now
+    if not nav.goToPose(PoseStamped.from_pose2d(Pose2D(*goal), stamp=stack.now)):
+        return GoalRun("REJECTED", 0.0, 0, 0, 0)
+    recoveries = 0
+    while not nav.isTaskComplete():
+        feedback = nav.getFeedback()
+        recoveries = max(recoveries, int(getattr(feedback, "number_of_recoveries", 0) or 0))
+        if stack.now - start > timeout_s:
+            nav.cancelTask()
+    result = nav.getTaskResult()
+    status = result.status.name if result is not None else "UNKNOWN"
+    return GoalRun(status, stack.now - start, recoveries, stack.sim.sim.collisions,
+                   stack.slam.maps_published if stack.slam is not None else 0)
 
 
 def _nav2_with(costmap_overrides: Mapping[str, Any]) -> dict[str, Any]:

@@ -116,11 +116,16 @@ class Costmap2D:
         self.origin_y += cell_oy * self.resolution
 
     def resize_map(self, size_x: int, size_y: int, resolution: float, origin_x: float,
-                   origin_y: float) -> None:
-        """Re-allocate the grid in place (Nav2 ``Costmap2D::resizeMap``); all cells reset.
+                   origin_y: float, keep: bool = False) -> None:
+        """Re-allocate the grid in place (Nav2 ``Costmap2D::resizeMap``); all cells reset,
+        unless ``keep``: then, at an unchanged resolution with the origin moved by whole
+        cells, the cells of the old grid keep their value where the two overlap (a map
+        that grows must not leave the planner an all-unknown costmap until the next
+        update).
 
         In place so that holders of this object (planners, controllers) see the new grid.
         """
+        old = (self.data, self.origin_x, self.origin_y, self.resolution)
         if size_x <= 0 or size_y <= 0:
             raise ValueError(f"costmap size must be positive, got {size_x}x{size_y}")
         if not resolution > 0.0:
@@ -128,6 +133,26 @@ class Costmap2D:
         self.size_x, self.size_y, self.resolution = int(size_x), int(size_y), float(resolution)
         self.origin_x, self.origin_y = float(origin_x), float(origin_y)
         self.data = np.full((self.size_y, self.size_x), self.default_value, dtype=np.uint8)
+        if keep:
+            self.copy_overlap(*old)
+
+    def copy_overlap(self, data: NDArray[np.uint8], origin_x: float, origin_y: float,
+                     resolution: float) -> None:
+        """Copy the cells of another grid (``data`` with that origin, same resolution,
+        origin offset a whole number of cells) where it overlaps this one; otherwise do
+        nothing."""
+        if abs(resolution - self.resolution) > 1e-12:
+            return
+        fx = (origin_x - self.origin_x) / self.resolution
+        fy = (origin_y - self.origin_y) / self.resolution
+        dx, dy = round(fx), round(fy)
+        if abs(fx - dx) > 1e-6 or abs(fy - dy) > 1e-6:
+            return
+        h, w = data.shape
+        x0, y0 = max(0, dx), max(0, dy)
+        x1, y1 = min(self.size_x, dx + w), min(self.size_y, dy + h)
+        if x0 < x1 and y0 < y1:
+            self.data[y0:y1, x0:x1] = data[y0 - dy:y1 - dy, x0 - dx:x1 - dx]
 
     def reset_map(self, x0: int, y0: int, xn: int, yn: int) -> None:
         """Set cells ``[x0, xn) x [y0, yn)`` to ``default_value`` (Nav2 ``resetMap``)."""

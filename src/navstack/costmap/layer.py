@@ -209,8 +209,11 @@ class CostmapLayer(Layer):
 
     def match_size(self) -> None:
         m = self.master
+        old = getattr(self, "costmap", None)
         self.costmap = Costmap2D(m.size_x, m.size_y, m.resolution, m.origin_x, m.origin_y,
                                  m.frame_id, self.default_value)
+        if old is not None:  # keep what the layer knew where the grids overlap
+            self.costmap.copy_overlap(old.data, old.origin_x, old.origin_y, old.resolution)
 
     def reset(self) -> None:
         super().reset()

@@ -207,8 +207,9 @@ class LayeredCostmap:
 
     def resize_map(self, size_x: int, size_y: int, resolution: float, origin_x: float,
                    origin_y: float) -> None:
-        """Resize the master and every layer (Nav2 ``resizeMap``)."""
-        self.costmap.resize_map(size_x, size_y, resolution, origin_x, origin_y)
+        """Resize the master and every layer (Nav2 ``resizeMap``), keeping the costs of
+        the cells the old and new grids share (a SLAM map that grows)."""
+        self.costmap.resize_map(size_x, size_y, resolution, origin_x, origin_y, keep=True)
         for layer in self.layers:
             layer.match_size()
 

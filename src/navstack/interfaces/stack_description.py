@@ -254,9 +254,15 @@ def describe_stack(world: World, robot: RobotParams, nav: Mapping[str, Any], fil
         xmin, ymin, xmax, ymax = world.bounds
         overrides = {"map_start_pose": [start.x, start.y, start.theta],
                      "map_minimum_extent": [xmin, ymin, xmax, ymax]}
-        slam = (loc.params.updated(**overrides) if isinstance(loc.params, SlamParams)
-                else SlamParams.from_mapping({**overrides, **loc.params},
-                                             key_path="slam_toolbox"))
+        # navigation plans on /map: a map every second (slam_toolbox's 5 s default
+        # leaves the planner routing through what the robot already saw blocked)
+        live = {"map_update_interval": 1.0}
+        if isinstance(loc.params, SlamParams):
+            slam = loc.params.updated(**overrides, **{
+                k: v for k, v in live.items() if k not in loc.params.model_fields_set})
+        else:
+            slam = SlamParams.from_mapping({**live, **overrides, **loc.params},
+                                           key_path="slam_toolbox")
     bt = ros_parameters(nav, "bt_navigator", file=file)
     tree = bt.pop("tree", None) or {}
     chain = command_chain(nav, file, robot)

@@ -82,6 +82,10 @@ class CarmenScan:
     ``odom`` the raw odometry pose derived as described in the module docstring, both
     ``(x, y, theta)`` in their own world frames.  ``laser_offset`` is the laser's pose in
     the robot frame.  ``line_no`` is the 1-based line of the scan in the file.
+    ``odom_gap`` is true when the log has an ODOM stream but no ODOM line came between the
+    previous laser line and this one: the odometry *since the previous scan* is missing
+    (its motion is counted as none), so the pose of this scan must not be predicted
+    from it.
     """
 
     kind: str
@@ -94,6 +98,7 @@ class CarmenScan:
     reference: FloatArray
     odom: FloatArray
     laser_offset: FloatArray
+    odom_gap: bool = False
 
     @property
     def valid(self) -> NDArray[np.bool_]:
@@ -214,6 +219,7 @@ class _RawScan:
     reference: Pose
     own_odom: Pose
     laser_offset: Pose
+    odom_gap: bool = False
 
 
 def _parse_flaser(tok: list[str], line_no: int, max_range: float,
@@ -298,6 +304,8 @@ def read_carmen(path: str | Path, kinds: tuple[str, ...] = LASER_KINDS) -> Carme
     check_ref: Pose | None = None            # reference pose the next ODOM may anchor to
     motion = _IDENTITY
     any_anchor = False
+    any_odom = False
+    odom_since_laser = True                  # an ODOM line since the last laser line
     for idx, line in enumerate(lines):
         tok = line.split()
         if not tok:
@@ -315,6 +323,7 @@ def read_carmen(path: str | Path, kinds: tuple[str, ...] = LASER_KINDS) -> Carme
                         seg_start = last if last is not None and check_ref is not None else pose
                     seg_open, check_ref = False, None
                 seg_last, last = pose, pose
+                any_odom = odom_since_laser = True
             elif tag in LASER_KINDS:
                 if seg_start is not None and seg_last is not None:
                     motion = _compose(motion, _between(seg_start, seg_last))
@@ -325,6 +334,8 @@ def read_carmen(path: str | Path, kinds: tuple[str, ...] = LASER_KINDS) -> Carme
                     continue
                 raw = (_parse_flaser(tok, idx + 1, max_range, offset) if tag == "FLASER"
                        else _parse_robotlaser1(tok, idx + 1))
+                raw.odom_gap = bool(raws) and not odom_since_laser
+                odom_since_laser = False
                 raws.append(raw)
                 before.append(last)
                 acc.append(motion)
@@ -346,7 +357,7 @@ def read_carmen(path: str | Path, kinds: tuple[str, ...] = LASER_KINDS) -> Carme
     odom = _odometry(raws, before, acc, any_anchor)
     scans = [CarmenScan(r.kind, r.line_no, r.timestamp, r.ranges, r.angle_min,
                         r.angle_increment, r.range_max, np.array(r.reference),
-                        np.array(o), np.array(r.laser_offset))
+                        np.array(o), np.array(r.laser_offset), any_odom and r.odom_gap)
              for r, o in zip(raws, odom, strict=True)]
     return CarmenLog(path, scans, params, skipped, ignored, any_anchor)
 

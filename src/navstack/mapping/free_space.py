@@ -31,11 +31,12 @@ __all__ = ["seen_through"]
 
 def seen_through(ranges: NDArray[np.floating], angles: FloatArray, range_min: float,
                  range_max: float, sensor_pose: FloatArray, points: FloatArray,
-                 margin: float) -> NDArray[np.bool_]:
+                 margin: float, range_fraction: float = 0.02) -> NDArray[np.bool_]:
     """Mask of ``points`` (world frame, (N, 2)) that the scan ``ranges`` (beams at
     ``angles``, sensor frame) taken from ``sensor_pose`` (world x, y, yaw) passes
     through: on a beam whose return, and its neighbours' returns, lie farther than the
-    point's range plus ``margin + 0.02 * range``.  Beams without a real return
+    point's range plus ``margin + range_fraction * range`` (the fraction covers the
+    pose guess's heading error).  Beams without a real return
     (``inf``, below ``range_min``, at or beyond ``range_max``) are no evidence."""
     n = angles.shape[0]
     if points.shape[0] == 0 or n < 3:
@@ -62,5 +63,5 @@ def seen_through(ranges: NDArray[np.floating], angles: FloatArray, range_min: fl
     inside = (beam >= 0) & (beam < n)
     out = np.zeros(points.shape[0], bool)
     b = beam[inside]
-    out[inside] = rho[inside] + margin + 0.02 * rho[inside] < reach[b]
+    out[inside] = rho[inside] * (1.0 + range_fraction) + margin < reach[b]
     return out

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -53,32 +54,89 @@ def refine_point_to_line(reference: FloatArray, normals: FloatArray,
                          huber: float = 0.02) -> tuple[FloatArray, int]:
     """Refine ``pose`` so that ``local`` points (robot frame) lie on the reference lines.
 
-    Returns the pose and the number of points used in the last iteration (0 when too few
+    Each iteration pairs every local point with the nearest line-like reference point
+    within ``max_distance`` (a bucket grid of that cell size: the 3 x 3 cells around a
+    point hold every candidate) and takes one Huber-weighted Gauss-Newton step.  Returns
+    the pose and the number of points used in the last iteration (0 when too few
     correspondences were found, in which case ``pose`` comes back unchanged)."""
     usable = np.flatnonzero(line_like)
+    start = np.asarray(pose, dtype=np.float64).copy()
     if usable.size < 10:
-        return np.asarray(pose, float).copy(), 0
-    ref = reference[usable]
-    nrm = normals[usable]
-    tree = cKDTree(ref)
-    p = np.asarray(pose, float).copy()
+        return start, 0
+    ref = np.ascontiguousarray(reference[usable], dtype=np.float64)
+    nrm = np.ascontiguousarray(normals[usable], dtype=np.float64)
+    pts = np.ascontiguousarray(local, dtype=np.float64)
+    refined, used = _icp(ref, nrm, pts, start, int(iterations), float(max_distance),
+                         float(huber))
+    return refined, int(used)
+
+
+@numba.njit(cache=True)
+def _icp(ref: FloatArray, nrm: FloatArray, local: FloatArray, pose: FloatArray,
+         iterations: int, max_distance: float, huber: float) -> tuple[FloatArray, int]:
+    n_ref = ref.shape[0]
+    x0 = ref[:, 0].min() - 1e-9
+    y0 = ref[:, 1].min() - 1e-9
+    cols = int((ref[:, 0].max() - x0) / max_distance) + 1
+    rows = int((ref[:, 1].max() - y0) / max_distance) + 1
+    head = np.full(rows * cols, -1, np.int64)
+    nxt = np.empty(n_ref, np.int64)
+    for k in range(n_ref):
+        cell = int((ref[k, 1] - y0) / max_distance) * cols + int((ref[k, 0] - x0) / max_distance)
+        nxt[k] = head[cell]
+        head[cell] = k
+    p = pose.copy()
     used = 0
+    md2 = max_distance * max_distance
     for _ in range(iterations):
-        c, s = math.cos(p[2]), math.sin(p[2])
-        world = local @ np.array([[c, s], [-s, c]]) + p[:2]
-        dist, j = tree.query(world, distance_upper_bound=max_distance)
-        ok = np.isfinite(dist)
-        used = int(ok.sum())
+        c = math.cos(p[2])
+        s = math.sin(p[2])
+        hess = np.zeros((3, 3))
+        grad = np.zeros(3)
+        used = 0
+        for i in range(local.shape[0]):
+            lx = local[i, 0]
+            ly = local[i, 1]
+            wx = c * lx - s * ly + p[0]
+            wy = s * lx + c * ly + p[1]
+            ci = math.floor((wx - x0) / max_distance)
+            ri = math.floor((wy - y0) / max_distance)
+            best = -1
+            best_d2 = md2
+            for rr in range(ri - 1, ri + 2):
+                if rr < 0 or rr >= rows:
+                    continue
+                for cc in range(ci - 1, ci + 2):
+                    if cc < 0 or cc >= cols:
+                        continue
+                    k = head[rr * cols + cc]
+                    while k >= 0:
+                        dx = wx - ref[k, 0]
+                        dy = wy - ref[k, 1]
+                        d2 = dx * dx + dy * dy
+                        if d2 < best_d2:
+                            best_d2 = d2
+                            best = k
+                        k = nxt[k]
+            if best < 0:
+                continue
+            used += 1
+            nx = nrm[best, 0]
+            ny = nrm[best, 1]
+            r = (wx - ref[best, 0]) * nx + (wy - ref[best, 1]) * ny
+            jt = (-s * lx - c * ly) * nx + (c * lx - s * ly) * ny
+            a = abs(r)
+            w = 1.0 if a < huber else huber / max(a, 1e-12)
+            jac = (nx, ny, jt)
+            for u in range(3):
+                grad[u] += w * jac[u] * r
+                for v in range(3):
+                    hess[u, v] += w * jac[u] * jac[v]
         if used < 10:
-            return np.asarray(pose, float).copy(), 0
-        n = nrm[j[ok]]
-        lp = local[ok]
-        r = np.einsum("ij,ij->i", world[ok] - ref[j[ok]], n)
-        d_theta = np.column_stack([-s * lp[:, 0] - c * lp[:, 1], c * lp[:, 0] - s * lp[:, 1]])
-        J = np.column_stack([n[:, 0], n[:, 1], np.einsum("ij,ij->i", d_theta, n)])
-        w = np.where(np.abs(r) < huber, 1.0, huber / np.maximum(np.abs(r), 1e-12))
-        H = (J * w[:, None]).T @ J + 1e-9 * np.eye(3)
-        delta = -np.linalg.solve(H, (J * w[:, None]).T @ r)
+            return pose.copy(), 0
+        for u in range(3):
+            hess[u, u] += 1e-9
+        delta = -np.linalg.solve(hess, grad)
         p += delta
         if math.hypot(delta[0], delta[1]) < 1e-5 and abs(delta[2]) < 1e-6:
             break

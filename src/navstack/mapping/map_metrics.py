@@ -105,6 +105,19 @@ def _grid_extent(grid: OccupancyGrid, name: str) -> tuple[float, float, float, f
     return o.x, o.y, o.x + data.shape[1] * res, o.y + data.shape[0] * res
 
 
+def _hit_cells(points: ArrayLike, anchor: tuple[float, float], col0: int, row0: int,
+               shape: tuple[int, int], resolution: float, dilate: int) -> NDArray[np.bool_]:
+    """Cells of the common lattice within ``dilate`` cells of one of ``points``."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    cols = np.floor((pts[:, 0] - anchor[0]) / resolution).astype(np.int64) - col0
+    rows = np.floor((pts[:, 1] - anchor[1]) / resolution).astype(np.int64) - row0
+    inside = (cols >= 0) & (cols < shape[1]) & (rows >= 0) & (rows < shape[0])
+    hit = np.zeros(shape, dtype=bool)
+    hit[rows[inside], cols[inside]] = True
+    return binary_dilation(hit, np.ones((2 * dilate + 1,) * 2, dtype=bool))
+
+
 def _resample(classes: NDArray[np.int8], grid: OccupancyGrid, anchor: tuple[float, float],
               col0: int, row0: int, shape: tuple[int, int], res: float) -> NDArray[np.int8]:
     """Splat source cells onto the common grid: lattice cells ``[anchor + i*res, ...)``,
@@ -147,7 +160,8 @@ def _has_4_neighbour(mask: BoolArray) -> BoolArray:
 def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: float = 0.05,
                   tolerance_cells: int = 1, *,
                   occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
-                  free_thresh: float = DEFAULT_FREE_THRESH) -> MapScore:
+                  free_thresh: float = DEFAULT_FREE_THRESH,
+                  observed_points: ArrayLike | None = None) -> MapScore:
     """Agreement of an estimated map with the true one on the observable wall surface.
 
     Both grids (any origins and resolutions, origin yaw 0) are resampled onto a common
@@ -164,6 +178,13 @@ def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: fl
       *and known* (free or occupied) in the estimate -- wall faces next to space the
       estimate has observed;
     * estimate surface E: occupied estimate cells with a 4-neighbour free in the estimate.
+
+    With ``observed_points`` (``(N, 2)`` laser returns drawn at the *true* poses of the
+    route, in the truth's frame) T keeps only the wall cells within ``max(1,
+    tolerance_cells)`` cells of a return: the walls the route's laser actually hit.  A
+    wall face next to observed free space can still be one no beam reached -- grazed at
+    a shallow angle, or beyond the laser's range at the end of a beam that found
+    nothing -- and no map, however exact its poses, has it.
 
     With ``d`` the Chebyshev distance in cells and ``k = tolerance_cells``:
     TP = #{e in E: d(e, T) <= k}, FP = #E - TP, FN = #{t in T: d(t, E) > k};
@@ -195,6 +216,9 @@ def occupancy_iou(estimated: OccupancyGrid, truth: OccupancyGrid, resolution: fl
     free_t = tru == _FREE
     known_e = est != _UNKNOWN
     truth_surface = (tru == _OCCUPIED) & _has_4_neighbour(free_t & known_e)
+    if observed_points is not None:
+        truth_surface &= _hit_cells(observed_points, (ax, ay), col0, row0, shape, resolution,
+                                    max(1, tolerance_cells))
     est_surface = (est == _OCCUPIED) & _has_4_neighbour(est == _FREE)
     n_truth = int(truth_surface.sum())
     if n_truth == 0:
@@ -303,3 +327,95 @@ def relative_pose_error(estimate: ArrayLike, reference: ArrayLike,
     return RelativePoseError(trans_mean_m=float(trans.mean()), trans_std_m=float(trans.std()),
                              rot_mean_deg=float(rot.mean()), rot_std_deg=float(rot.std()),
                              pairs=int(trans.size))
+
+
+# --- global consistency ----------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class LoopRelationError:
+    """Relative pose error over the *loop relations* of :func:`loop_relations` (pairs of
+    scans close in space but far apart along the path): ``trans_mean_m`` / ``rot_mean_deg``
+    as in :class:`RelativePoseError`, plus the worst pair and the pair count."""
+
+    trans_mean_m: float
+    trans_max_m: float
+    rot_mean_deg: float
+    pairs: int
+
+
+@dataclass(frozen=True, slots=True)
+class TrajectoryScores:
+    """Everything :func:`trajectory_scores` measures of one estimated trajectory.
+
+    ``rpe`` maps a separation ``d`` (in poses) to the relative pose error over the pairs
+    ``(k, k + d)`` (separations longer than the trajectory are left out); ``loops`` is
+    ``None`` when the reference never comes back to a place it left."""
+
+    ate: AbsoluteTrajectoryError
+    rpe: dict[int, RelativePoseError]
+    loops: LoopRelationError | None
+
+
+#: separations [poses] of :func:`trajectory_scores`' RPE: consecutive, 10 and 100 nodes
+RPE_SEPARATIONS = (1, 10, 100)
+
+
+def loop_relations(reference: ArrayLike, max_distance: float = 1.0,
+                   min_path: float = 10.0) -> NDArray[np.int64]:
+    """Pairs ``(i, j)``, ``i < j``, of reference poses less than ``max_distance`` [m] apart
+    whose reference path between them is at least ``min_path`` [m] long: the places the
+    robot came back to.  Their relative pose error is what a consecutive-pair metric cannot
+    see -- a corridor mapped twice side by side has small consecutive errors and a loop
+    relation error of the offset between the two copies.  Returns ``(M, 2)`` (M may be 0)."""
+    ref = np.asarray(reference, dtype=np.float64)
+    if ref.ndim != 2 or ref.shape[1] < 2 or ref.shape[0] == 0:
+        raise MapComparisonError(f"loop_relations needs an (N, 3) reference, got shape "
+                                 f"{ref.shape}")
+    if not (max_distance > 0.0 and min_path >= 0.0):
+        raise MapComparisonError(f"max_distance must be > 0 and min_path >= 0, got "
+                                 f"{max_distance} and {min_path}")
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(ref[:, :2]).query_pairs(max_distance, output_type="ndarray")
+    if pairs.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = np.sort(pairs.astype(np.int64), axis=1)
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))))
+    far = along[pairs[:, 1]] - along[pairs[:, 0]] >= min_path
+    out = pairs[far]
+    return out[np.lexsort((out[:, 1], out[:, 0]))]
+
+
+def loop_relation_error(estimate: ArrayLike, reference: ArrayLike, max_distance: float = 1.0,
+                        min_path: float = 10.0) -> LoopRelationError | None:
+    """Relative pose error (:func:`relative_pose_error`'s definition) over the
+    :func:`loop_relations` of the reference; ``None`` when there are none."""
+    est, ref = _trajectories(estimate, reference, "loop_relation_error")
+    pairs = loop_relations(ref, max_distance, min_path)
+    if pairs.shape[0] == 0:
+        return None
+    err = se2_between(se2_between(ref[pairs[:, 0]], ref[pairs[:, 1]]),
+                      se2_between(est[pairs[:, 0]], est[pairs[:, 1]]))
+    trans = np.hypot(err[:, 0], err[:, 1])
+    return LoopRelationError(trans_mean_m=float(trans.mean()), trans_max_m=float(trans.max()),
+                             rot_mean_deg=float(np.degrees(np.abs(err[:, 2])).mean()),
+                             pairs=int(trans.size))
+
+
+def trajectory_scores(estimate: ArrayLike, reference: ArrayLike,
+                      separations: tuple[int, ...] = RPE_SEPARATIONS,
+                      loop_distance: float = 1.0, loop_min_path: float = 10.0
+                      ) -> TrajectoryScores:
+    """Global and local error of a trajectory against its reference: aligned ATE
+    (:func:`absolute_trajectory_error`), RPE at each separation that fits, and the loop
+    relation error (:func:`loop_relation_error`)."""
+    est, ref = _trajectories(estimate, reference, "trajectory_scores")
+    n = est.shape[0]
+    rpe = {}
+    for d in separations:
+        if d < 1:
+            raise MapComparisonError(f"RPE separations must be >= 1 pose, got {d}")
+        if d < n:
+            k = np.arange(n - d)
+            rpe[d] = relative_pose_error(est, ref, np.stack((k, k + d), axis=1))
+    return TrajectoryScores(ate=absolute_trajectory_error(est, ref), rpe=rpe,
+                            loops=loop_relation_error(est, ref, loop_distance, loop_min_path))

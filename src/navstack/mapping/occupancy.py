@@ -219,6 +219,26 @@ def _integrate(logodds: NDArray[np.float32], mark: NDArray[np.int32], stamp0: in
                     t_max_x += t_dx
 
 
+def _stop_short(origin: FloatArray, ends: FloatArray, margin: float) -> FloatArray:
+    """``ends`` (M, 2, the returns of one scan in beam order) moved back towards ``origin``
+    until they are ``margin`` from the surface they lie on, measured across it.  The
+    surface's direction at a return is the chord between its neighbours two beams away;
+    a beam meeting it at angle ``b`` stops ``margin / sin(b)`` short (at most ten times
+    ``margin``: a grazing beam, or one at a depth edge, clears little near its end)."""
+    d = ends - origin
+    length = np.hypot(d[:, 0], d[:, 1])
+    unit = d / np.maximum(length, 1e-9)[:, None]
+    n = ends.shape[0]
+    idx = np.arange(n)
+    chord = ends[np.minimum(idx + 2, n - 1)] - ends[np.maximum(idx - 2, 0)]
+    span = np.hypot(chord[:, 0], chord[:, 1])
+    sin_b = np.abs(unit[:, 0] * chord[:, 1] - unit[:, 1] * chord[:, 0]) / np.maximum(span, 1e-9)
+    sin_b = np.where(span > 1e-9, sin_b, 1.0)  # a single return: head-on
+    short = margin / np.maximum(sin_b, 0.1)
+    keep = np.maximum(length - short, 0.0) / np.maximum(length, 1e-9)
+    return origin + d * keep[:, None]
+
+
 class LogOddsGrid:
     """Growable log-odds occupancy grid (see the module docstring for model and sources).
 
@@ -336,13 +356,20 @@ class LogOddsGrid:
     def integrate_scans(self, poses: ArrayLike, scans: Sequence[LaserScan | ScanData],
                         max_usable_range: float = math.inf, *,
                         sensor_pose: ArrayLike | None = None,
-                        clear_no_returns: bool = True) -> None:
+                        clear_no_returns: bool = True, clear_only: bool = False) -> None:
         """Add a whole set of scans in one pass (rebuilding a map from a pose graph).
 
         ``poses`` (K, 3) are the scans' poses in the map frame: sensor poses, or robot
         poses when ``sensor_pose`` (the sensor's (x, y, yaw) in the robot frame) is given.
         Each scan is a :class:`LaserScan` or a :class:`ScanData`; ranges are interpreted
-        by :func:`scan_endpoints` with ``max_usable_range``.
+        by :func:`scan_endpoints` with ``max_usable_range``.  ``clear_only``: the scans
+        only add free space and mark nothing -- each return's beam stops 1.5 cells short
+        of the surface it hit, measured across that surface (:func:`_stop_short`), and
+        the cells within one cell of any of their returns keep their value.  What a
+        passing person left behind is erased; a wall is not: a beam that grazes a wall
+        runs along the cells of its face, and stopping 1.5 cells short along the beam
+        alone let such beams erode a wall whose face lies on a cell boundary to
+        "unknown" (exploration then saw frontiers along it).
         """
         pose_arr = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         if pose_arr.shape[0] != len(scans):
@@ -354,6 +381,7 @@ class LogOddsGrid:
             pose_arr = se2_compose(pose_arr, np.asarray(sensor_pose, dtype=np.float64))
         all_ends: list[FloatArray] = []
         all_hits: list[BoolArray] = []
+        returns: list[FloatArray] = []
         starts = np.zeros(len(scans) + 1, dtype=np.int64)
         for k, scan in enumerate(scans):
             if isinstance(scan, LaserScan):
@@ -365,11 +393,39 @@ class LogOddsGrid:
             ends, hits = scan_endpoints(pose_arr[k], data.ranges, data.angles, data.range_min,
                                         data.range_max, max_usable_range,
                                         clear_no_returns=clear_no_returns)
+            if clear_only and hits.any():
+                returns.append(ends[hits])
+                ends = ends.copy()
+                ends[hits] = _stop_short(pose_arr[k, :2], ends[hits], 1.5 * self._res)
+                hits = np.zeros_like(hits)
             all_ends.append(ends)
             all_hits.append(hits)
             starts[k + 1] = starts[k] + hits.size
-        self._integrate(np.ascontiguousarray(pose_arr[:, :2]), starts,
-                        np.concatenate(all_ends), np.concatenate(all_hits))
+        sensors = np.ascontiguousarray(pose_arr[:, :2])
+        ends_all = np.concatenate(all_ends)
+        kept = self._protect(np.concatenate(returns), sensors, ends_all) if returns else None
+        self._integrate(sensors, starts, ends_all, np.concatenate(all_hits))
+        if kept is not None:
+            rows, cols, values = kept
+            self._l[rows, cols] = values
+
+    def _protect(self, points: FloatArray, sensors: FloatArray, ends: FloatArray
+                 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float32]]:
+        """Cells within one cell of ``points`` and their current log-odds (the grid first
+        grown to hold ``sensors`` and ``ends``, as the integration would)."""
+        if self.params.growable:
+            lo = np.minimum(sensors.min(axis=0), ends.min(axis=0, initial=np.inf))
+            hi = np.maximum(sensors.max(axis=0), ends.max(axis=0, initial=-np.inf))
+            self._ensure_contains(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+        r = np.floor((points[:, 1] - self._ay) / self._res - self._off_row).astype(np.intp)
+        c = np.floor((points[:, 0] - self._ax) / self._res - self._off_col).astype(np.intp)
+        h, w = self.shape
+        rows = (r[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])).ravel()
+        cols = (c[:, None] + np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1])).ravel()
+        ok = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+        flat = np.unique(rows[ok] * w + cols[ok])
+        rows, cols = flat // w, flat % w
+        return rows, cols, self._l[rows, cols].copy()
 
     def _integrate(self, sensors: FloatArray, starts: NDArray[np.int64], ends: FloatArray,
                    hits: BoolArray) -> None:

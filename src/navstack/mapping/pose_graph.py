@@ -67,6 +67,28 @@ def _solver_error(stage: str, exc: RuntimeError) -> PoseGraphSolverError:
         "node is anchored automatically); an ill-conditioned graph needs factorization QR")
 
 
+#: robust kernels of :meth:`PoseGraph.add_edge`, by code (the serialized form)
+KERNELS: tuple[str, ...] = ("cauchy", "huber", "dcs")
+RobustKernel = Literal["cauchy", "huber", "dcs"]
+_M_ESTIMATORS = (gtsam.noiseModel.mEstimator.Cauchy.Create,
+                 gtsam.noiseModel.mEstimator.Huber.Create,
+                 gtsam.noiseModel.mEstimator.DCS.Create)
+
+
+def _kernel_codes(kernel: str | ArrayLike, count: int, what: str) -> list[int]:
+    if isinstance(kernel, str):
+        if kernel not in KERNELS:
+            raise PoseGraphError(f"{what}: robust kernel {kernel!r} is not one of "
+                                 f"{', '.join(KERNELS)}")
+        return [KERNELS.index(kernel)] * count
+    codes = np.asarray(kernel).reshape(-1)
+    if codes.shape != (count,) or not np.isin(codes, np.arange(len(KERNELS))).all():
+        raise PoseGraphError(f"{what}: robust kernel codes must be {count} values in "
+                             f"0..{len(KERNELS) - 1} ({', '.join(KERNELS)}), got "
+                             f"{codes.tolist()}")
+    return [int(c) for c in codes]
+
+
 class PoseGraphParams(Params):
     """Solver settings.
 
@@ -155,12 +177,21 @@ class PoseGraph:
         self._meas: list[FloatArray] = []
         self._info: list[FloatArray] = []
         self._robust: list[float] = []
+        self._kernel: list[int] = []
         self._prior_ids: list[int] = []
         self._prior_poses: list[FloatArray] = []
         self._prior_info: list[FloatArray] = []
-        self._graph = gtsam.NonlinearFactorGraph()
+        # every factor (edges and priors) in insertion order; removed ones stay as holes
+        self._factors: list[gtsam.NonlinearFactor] = []
+        self._active: list[bool] = []
+        self._slot: list[int] = []          # ISAM2 factor index, -1 while not in ISAM2
+        self._edge_factor: list[int] = []   # edge number -> factor number
+        self._pending: list[int] = []       # factors to hand to ISAM2 at the next update
+        self._to_remove: list[int] = []     # ISAM2 slots to remove at the next update
+        self._graph_cache: gtsam.NonlinearFactorGraph | None = None
         self._values = gtsam.Values()
-        self._new_factors = gtsam.NonlinearFactorGraph()
+        self._stale = False                 # _values lags ISAM2 (refreshed lazily)
+        self._poses_cache: FloatArray | None = None
         self._new_values = gtsam.Values()
         self._isam: gtsam.ISAM2 | None = None
 
@@ -176,33 +207,40 @@ class PoseGraph:
         value = gtsam.Pose2(p[0], p[1], p[2])
         self._values.insert(nid, value)
         self._new_values.insert(nid, value)
+        self._poses_cache = None
         if self._first is None:
             self._first = nid
 
     def add_edge(self, i: int, j: int, measurement: ArrayLike, information: ArrayLike,
-                 robust_kernel: float = 0.0) -> None:
+                 robust_kernel: float = 0.0, kernel: RobustKernel = "cauchy") -> int:
         """Constraint: pose of node ``j`` in the frame of node ``i`` is ``measurement``
         (3,) with ``information`` (3, 3) over ``(dx, dy, dtheta)`` in frame ``i``.
 
         ``robust_kernel`` > 0 wraps the edge in a Cauchy M-estimator of that scale (in
         standard deviations): an edge that disagrees with the rest of the graph by many
         sigmas then pulls with a bounded force (loop closures; Sunderhauf & Protzel's
-        observation that one false closure otherwise bends the whole map)."""
-        self.add_edges([i], [j], np.asarray(measurement, dtype=np.float64)[None],
-                       np.asarray(information, dtype=np.float64)[None], [robust_kernel])
+        observation that one false closure otherwise bends the whole map).  ``kernel``
+        picks the M-estimator: ``cauchy``, ``huber`` or ``dcs`` (dynamic covariance
+        scaling, Agarwal et al., ICRA 2013).  Returns the edge's number (for
+        :meth:`remove_edge` and :meth:`edge_chi2`)."""
+        return self.add_edges([i], [j], np.asarray(measurement, dtype=np.float64)[None],
+                              np.asarray(information, dtype=np.float64)[None], [robust_kernel],
+                              kernel)[0]
 
     def add_edges(self, i: ArrayLike, j: ArrayLike, measurements: ArrayLike,
-                  information: ArrayLike, robust_kernel: ArrayLike | None = None) -> None:
+                  information: ArrayLike, robust_kernel: ArrayLike | None = None,
+                  kernel: RobustKernel | ArrayLike = "cauchy") -> list[int]:
         """Many edges at once (``(M,)``, ``(M,)``, ``(M, 3)``, ``(M, 3, 3)``, optional
-        ``(M,)`` Cauchy scales, 0 = plain Gaussian), validated in one vectorised pass;
-        nothing is added if any edge is invalid."""
+        ``(M,)`` robust kernel scales, 0 = plain Gaussian, and the kernel name or ``(M,)``
+        kernel codes of :data:`KERNELS`), validated in one vectorised pass; nothing is
+        added if any edge is invalid.  Returns the new edges' numbers."""
         ii = np.asarray(i).reshape(-1)
         jj = np.asarray(j).reshape(-1)
         ii_int = [int(v) for v in ii]
         jj_int = [int(v) for v in jj]
         whats = [f"edge {a} -> {b}" for a, b in zip(ii_int, jj_int, strict=True)]
         if not whats:
-            return
+            return []
         for a, b, what in zip(ii_int, jj_int, whats, strict=True):
             self._require(a, what)
             self._require(b, what)
@@ -221,19 +259,68 @@ class PoseGraph:
         if robust.shape != (len(whats),) or not (np.isfinite(robust) & (robust >= 0)).all():
             raise PoseGraphError(f"{whats[0]}: robust_kernel must be one finite number >= 0 "
                                  f"per edge, got {robust.tolist()}")
-        for a, b, zk, ik, rk in zip(ii_int, jj_int, z, info, robust, strict=True):
+        codes = _kernel_codes(kernel, len(whats), whats[0])
+        first = len(self._ei)
+        for a, b, zk, ik, rk, code in zip(ii_int, jj_int, z, info, robust, codes, strict=True):
             gaussian = gtsam.noiseModel.Gaussian.Information(ik)
-            noise = (gtsam.noiseModel.Robust.Create(
-                gtsam.noiseModel.mEstimator.Cauchy.Create(float(rk)), gaussian)
-                if rk > 0 else gaussian)
+            noise = (gtsam.noiseModel.Robust.Create(_M_ESTIMATORS[code](float(rk)), gaussian)
+                     if rk > 0 else gaussian)
             factor = gtsam.BetweenFactorPose2(a, b, gtsam.Pose2(zk[0], zk[1], zk[2]), noise)
-            self._graph.add(factor)
-            self._new_factors.add(factor)
+            self._edge_factor.append(len(self._factors))
+            self._push(factor)
+        self._kernel.extend(codes)
         self._ei.extend(ii_int)
         self._ej.extend(jj_int)
         self._meas.extend(z.copy())
         self._info.extend(info)
         self._robust.extend(robust.tolist())
+        return list(range(first, len(self._ei)))
+
+    def _push(self, factor: gtsam.NonlinearFactor) -> None:
+        self._pending.append(len(self._factors))
+        self._factors.append(factor)
+        self._active.append(True)
+        self._slot.append(-1)
+        self._graph_cache = None
+
+    def remove_edge(self, edge: int) -> None:
+        """Take edge number ``edge`` out of the graph (a loop closure found to be an
+        outlier); ISAM2 drops it at the next :meth:`update`."""
+        if not 0 <= edge < len(self._edge_factor) or not self._active[self._edge_factor[edge]]:
+            raise PoseGraphError(f"edge {edge} does not exist or was already removed")
+        f = self._edge_factor[edge]
+        self._active[f] = False
+        self._graph_cache = None
+        if self._slot[f] >= 0:
+            self._to_remove.append(self._slot[f])
+            self._slot[f] = -1
+        elif f in self._pending:
+            self._pending.remove(f)
+
+    def edge_chi2(self, edge: int) -> float:
+        """Squared Mahalanobis norm of edge ``edge``'s error at the current estimate
+        (without its robust kernel): about chi-square with 3 degrees of freedom when the
+        edge agrees with the graph."""
+        k = int(edge)
+        if not 0 <= k < len(self._ei):
+            raise PoseGraphError(f"edge {edge} does not exist")
+        z = self._meas[k]
+        xi, xj = self.pose(self._ei[k]), self.pose(self._ej[k])
+        err = gtsam.Pose2.Logmap(gtsam.Pose2(z[0], z[1], z[2]).between(
+            gtsam.Pose2(xi[0], xi[1], xi[2]).between(gtsam.Pose2(xj[0], xj[1], xj[2]))))
+        e = np.asarray(err, dtype=np.float64)
+        return float(e @ self._info[k] @ e)
+
+    def marginal_covariance(self, node_id: int) -> FloatArray:
+        """``(3, 3)`` marginal covariance of a node (x, y, theta in the node's own frame,
+        gtsam's Pose2 tangent space) from ISAM2's Bayes tree.  Cheap for the newest node
+        (it sits in the root clique), more expensive the older the node."""
+        nid = int(node_id)
+        self._require(nid, "marginal_covariance")
+        if self._isam is None or self._pending or self._new_values.size():
+            self.update()
+        assert self._isam is not None
+        return np.asarray(self._isam.marginalCovariance(nid), dtype=np.float64)
 
     def add_prior(self, node_id: int, pose: ArrayLike, information: ArrayLike) -> None:
         """Absolute constraint on node ``node_id`` (e.g. a known start or a GNSS fix)."""
@@ -244,8 +331,7 @@ class PoseGraph:
         info = _informations(np.asarray(information, dtype=np.float64)[None], [what])[0]
         factor = gtsam.PriorFactorPose2(nid, gtsam.Pose2(p[0], p[1], p[2]),
                                         gtsam.noiseModel.Gaussian.Information(info))
-        self._graph.add(factor)
-        self._new_factors.add(factor)
+        self._push(factor)
         self._prior_ids.append(nid)
         self._prior_poses.append(p)
         self._prior_info.append(info)
@@ -274,16 +360,50 @@ class PoseGraph:
         self._ensure_anchor()
         try:
             if self._isam is None:
+                self._sync()
                 self._isam = gtsam.ISAM2(self._isam2_params())
-                self._isam.update(self._graph, self._values)
+                self._slot = [-1] * len(self._factors)
+                added = [f for f, on in enumerate(self._active) if on]
+                graph = gtsam.NonlinearFactorGraph()
+                for f in added:
+                    graph.add(self._factors[f])
+                result = self._isam.update(graph, self._values)
             else:
-                self._isam.update(self._new_factors, self._new_values)
-            self._values = self._isam.calculateEstimate()
+                added = list(self._pending)
+                graph = gtsam.NonlinearFactorGraph()
+                for f in added:
+                    graph.add(self._factors[f])
+                result = self._isam.update(graph, self._new_values, self._to_remove)
+            for f, slot in zip(added, result.getNewFactorsIndices(), strict=True):
+                self._slot[f] = int(slot)
         except RuntimeError as exc:
             self._isam = None          # the next update re-seeds from the whole graph
             self._clear_pending()
             raise _solver_error("ISAM2 update", exc) from exc
         self._clear_pending()
+        self._stale = True
+        self._poses_cache = None
+
+    def _sync(self) -> None:
+        """Bring ``_values`` up to the ISAM2 estimate (nodes not yet handed to ISAM2 keep
+        their initial guess)."""
+        if not self._stale or self._isam is None:
+            return
+        estimate = self._isam.calculateEstimate()
+        for key in self._values.keys():  # noqa: SIM118 (gtsam Values is not iterable)
+            if not estimate.exists(key):
+                estimate.insert(key, self._values.atPose2(key))
+        self._values = estimate
+        self._stale = False
+
+    def _active_graph(self) -> gtsam.NonlinearFactorGraph:
+        if self._graph_cache is None:
+            graph = gtsam.NonlinearFactorGraph()
+            for factor, on in zip(self._factors, self._active, strict=True):
+                if on:
+                    graph.add(factor)
+            self._graph_cache = graph
+        return self._graph_cache
 
     def optimize(self, max_iterations: int = 100) -> float:
         """Batch Levenberg–Marquardt from the current estimate; returns :meth:`error`.
@@ -294,28 +414,33 @@ class PoseGraph:
         (each node initialised from its predecessor's estimate) reaches 20.60.
         """
         self._ensure_anchor()
+        self._sync()
         prm = gtsam.LevenbergMarquardtParams()
         prm.setRelativeErrorTol(self.params.relative_error_tol)
         prm.setAbsoluteErrorTol(self.params.absolute_error_tol)
         prm.setMaxIterations(int(max_iterations))
         try:
-            self._values = gtsam.LevenbergMarquardtOptimizer(self._graph, self._values,
-                                                             prm).optimize()
+            self._values = gtsam.LevenbergMarquardtOptimizer(self._active_graph(),
+                                                             self._values, prm).optimize()
         except RuntimeError as exc:
             raise _solver_error("Levenberg-Marquardt", exc) from exc
         self._isam = None
+        self._stale = False
+        self._poses_cache = None
         self._clear_pending()
         return self.error()
 
     def _clear_pending(self) -> None:
-        self._new_factors = gtsam.NonlinearFactorGraph()
+        self._pending = []
+        self._to_remove = []
         self._new_values = gtsam.Values()
 
     # --- queries -----------------------------------------------------------------------
     def error(self) -> float:
         """Total cost ``0.5 * sum of squared Mahalanobis norms`` at the current estimate."""
         self._ensure_anchor()
-        return float(self._graph.error(self._values))
+        self._sync()
+        return float(self._active_graph().error(self._values))
 
     @property
     def num_nodes(self) -> int:
@@ -330,22 +455,36 @@ class PoseGraph:
         """``(N, 3)`` current estimate, rows in :attr:`node_ids` order."""
         if self._values.size() == 0:
             return np.zeros((0, 3))
-        return np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64)
+        if self._poses_cache is None:
+            self._sync()
+            self._poses_cache = np.asarray(gtsam.utilities.extractPose2(self._values),
+                                           dtype=np.float64)
+        return self._poses_cache.copy()
 
     def pose(self, node_id: int) -> FloatArray:
         """Current estimate of one node, ``(3,)``."""
         nid = int(node_id)
         self._require(nid, "pose")
-        p = self._values.atPose2(nid)
+        if self._stale and self._isam is not None and self._isam.valueExists(nid):
+            p = self._isam.calculateEstimatePose2(nid)
+        else:
+            p = self._values.atPose2(nid)
         return np.array([p.x(), p.y(), p.theta()])
+
+    def _live_edges(self) -> list[int]:
+        return [k for k, f in enumerate(self._edge_factor) if self._active[f]]
 
     @property
     def edges(self) -> PoseGraphEdges:
-        m = len(self._ei)
-        return PoseGraphEdges(np.array(self._ei, dtype=np.int64),
-                              np.array(self._ej, dtype=np.int64),
-                              np.array(self._meas, dtype=np.float64).reshape(m, 3),
-                              np.array(self._info, dtype=np.float64).reshape(m, 3, 3))
+        """The edges in the graph (removed ones left out), in insertion order."""
+        live = self._live_edges()
+        m = len(live)
+        return PoseGraphEdges(np.array([self._ei[k] for k in live], dtype=np.int64),
+                              np.array([self._ej[k] for k in live], dtype=np.int64),
+                              np.array([self._meas[k] for k in live],
+                                       dtype=np.float64).reshape(m, 3),
+                              np.array([self._info[k] for k in live],
+                                       dtype=np.float64).reshape(m, 3, 3))
 
     # --- conversion --------------------------------------------------------------------
     @classmethod
@@ -376,6 +515,7 @@ class PoseGraph:
         :meth:`poses` and :meth:`error` are bit-identical.
         """
         self._ensure_anchor()
+        self._sync()
         ids = self.node_ids
         rot = np.array([[r.c(), r.s()] for r in
                         (self._values.atPose2(int(k)).rotation() for k in ids)],
@@ -390,7 +530,10 @@ class PoseGraph:
             "edge_j": e.j,
             "edge_measurement": e.measurement,
             "edge_information": e.information,
-            "edge_robust_kernel": np.array(self._robust, dtype=np.float64),
+            "edge_robust_kernel": np.array([self._robust[k] for k in self._live_edges()],
+                                           dtype=np.float64),
+            "edge_robust_type": np.array([self._kernel[k] for k in self._live_edges()],
+                                         dtype=np.int64),
             "prior_ids": np.array(self._prior_ids, dtype=np.int64),
             "prior_poses": np.array(self._prior_poses, dtype=np.float64).reshape(n_p, 3),
             "prior_information": np.array(self._prior_info,
@@ -425,7 +568,10 @@ class PoseGraph:
                      np.asarray(data["edge_information"]).reshape(-1, 3, 3),
                      np.asarray(data.get("edge_robust_kernel",
                                          np.zeros(len(np.asarray(data["edge_i"])))),
-                                dtype=np.float64))
+                                dtype=np.float64),
+                     np.asarray(data.get("edge_robust_type",
+                                         np.zeros(len(np.asarray(data["edge_i"])))),
+                                dtype=np.int64))
         values = gtsam.Values()
         for nid, p, (c, s) in zip(ids.tolist(), poses, rot.tolist(), strict=True):
             values.insert(nid, gtsam.Pose2(gtsam.Rot2.fromCosSin(c, s),

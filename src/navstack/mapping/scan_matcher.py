@@ -36,7 +36,9 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan"]
+__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan",
+           "offset_moments", "response_covariance", "smeared_grid",
+           "surface_covariance_matrix"]
 
 
 @dataclass(frozen=True)
@@ -56,11 +58,13 @@ class SearchWindow:
 
 @dataclass(frozen=True)
 class MatchResult:
-    """Best pose found, its response (mean likelihood, 0..1) and 3x3 covariance."""
+    """Best pose found, its response (mean likelihood, 0..1), 3x3 covariance and the
+    Gauss-Newton Hessian ``J^T J`` of the fit there (``None`` when not computed)."""
 
     pose: FloatArray
     response: float
     covariance: FloatArray
+    hessian: FloatArray | None = None
 
 
 # --- likelihood grid ------------------------------------------------------------------
@@ -115,6 +119,26 @@ def _distinct_cells(cells: NDArray[np.int64], height: int, width: int,
     return np.column_stack([flat // span_c - reach, flat % span_c - reach])
 
 
+def smeared_grid(points: FloatArray, resolution: float, smear_deviation: float,
+                 bounds: tuple[float, float, float, float]
+                 ) -> tuple[NDArray[np.float32], FloatArray]:
+    """The likelihood raster alone (no bound grid): ``(grid, origin)`` with ``grid[row,
+    col]`` the max over ``points`` of a Gaussian of ``smear_deviation`` at the cell
+    centre ``origin + (col, row) * resolution``, covering ``bounds`` (xmin, ymin, xmax,
+    ymax)."""
+    xmin, ymin, xmax, ymax = bounds
+    origin = np.array([xmin, ymin], dtype=np.float64)
+    width = math.ceil((xmax - xmin) / resolution) + 1
+    height = math.ceil((ymax - ymin) / resolution) + 1
+    grid = np.zeros((height, width), np.float32)
+    radius = max(1, math.ceil(3.0 * smear_deviation / resolution))
+    idx = np.rint((np.asarray(points, float) - origin) / resolution)
+    cells = _distinct_cells(idx[:, ::-1].astype(np.int64), height, width, radius)
+    kernel, low = _smear_kernel(radius, resolution, smear_deviation, 1)
+    _stamp(grid, cells, kernel, low)
+    return grid, origin
+
+
 class LikelihoodGrid:
     """Smeared reference points on a grid, plus its ``block``-cell bound grid.
 
@@ -141,9 +165,14 @@ class LikelihoodGrid:
     @classmethod
     def around(cls, reference: FloatArray, query_world: FloatArray, margin: float,
                resolution: float, smear_deviation: float, block: int = 4) -> LikelihoodGrid:
-        """A grid covering the query points (at any searched pose) plus ``margin``."""
-        lo = query_world.min(axis=0) - margin
-        hi = query_world.max(axis=0) + margin
+        """A grid covering the query points (at any searched pose) plus ``margin``,
+        cropped to where the reference can leave a mark (its extent plus the smear
+        kernel and one bound block): outside that every cell is zero anyway, so the
+        scores are the same and a small local map costs a small grid."""
+        reach = 3.0 * smear_deviation + (block + 1) * resolution
+        lo = np.maximum(query_world.min(axis=0) - margin, reference.min(axis=0) - reach)
+        hi = np.minimum(query_world.max(axis=0) + margin, reference.max(axis=0) + reach)
+        hi = np.maximum(hi, lo + resolution)
         return cls(reference, resolution, smear_deviation, (lo[0], lo[1], hi[0], hi[1]), block)
 
     def cells_of(self, points: FloatArray) -> NDArray[np.int64]:
@@ -305,9 +334,16 @@ def _gauss_newton(grid: NDArray[np.float32], local: NDArray[np.float64], ox: flo
     return p, mean, H
 
 
-def _rotated(local: FloatArray, theta: float) -> FloatArray:
-    c, s = math.cos(theta), math.sin(theta)
-    return local @ np.array([[c, s], [-s, c]])
+def _cells_at_angles(grid: LikelihoodGrid, local: FloatArray, xy: FloatArray,
+                     angles: FloatArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(A, N)`` rows and columns of the points rotated by each angle, shifted by xy."""
+    c = np.cos(angles)[:, None]
+    s = np.sin(angles)[:, None]
+    wx = c * local[:, 0] - s * local[:, 1] + xy[0]
+    wy = s * local[:, 0] + c * local[:, 1] + xy[1]
+    cols = np.rint((wx - grid.origin[0]) / grid.resolution).astype(np.int64)
+    rows = np.rint((wy - grid.origin[1]) / grid.resolution).astype(np.int64)
+    return rows, cols
 
 
 def _angle_penalty(dtheta: FloatArray, variance: float, minimum: float) -> FloatArray:
@@ -320,13 +356,7 @@ def _search_angles(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
                    exclude: tuple[float, float, float] | None = None,
                    ) -> tuple[float, float, float, float]:
     """Branch-and-bound translation search over the given absolute angles."""
-    A = angles.size
-    rows = np.empty((A, local.shape[0]), np.int64)
-    cols = np.empty((A, local.shape[0]), np.int64)
-    for a, th in enumerate(angles):
-        cells = grid.cells_of(_rotated(local, th) + guess[:2])
-        rows[a] = cells[:, 0]
-        cols[a] = cells[:, 1]
+    rows, cols = _cells_at_angles(grid, local, guess[:2], angles)
     pen = _angle_penalty(angles - guess[2], window.angle_variance_penalty,
                          window.minimum_angle_penalty)
     ex_r = ex_c = 0
@@ -367,7 +397,8 @@ def match_scan(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
             pose = refined
     mean_here, H = _response_and_hessian(grid, local, pose)
     pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
-    return MatchResult(pose=pose, response=mean_here, covariance=_covariance(H, mean_here, res))
+    return MatchResult(pose=pose, response=mean_here, covariance=_covariance(H, mean_here, res),
+                       hessian=H)
 
 
 def ambiguity(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
@@ -384,6 +415,102 @@ def ambiguity(grid: LikelihoodGrid, local: FloatArray, guess: FloatArray,
     *_, other = _search_angles(grid, local, guess, angles, half_cells, window,
                                (float(best[0]), float(best[1]), exclusion))
     return float(other / best_score) if best_score > 0 else 1.0
+
+
+def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArray,
+                        window: SearchWindow, drop: float = 0.1) -> FloatArray:
+    """Covariance of a match from the shape of its response surface (Karto's
+    ``ComputePositionalCovariance`` / ``ComputeAngularCovariance``; Olson 2009, sec. IV).
+
+    Over the window's translations at the matched angle, and over the fine angles of one
+    coarse step either side at the matched translation, every pose whose response is
+    within ``drop`` of the best counts, weighted by its response; the covariance is the
+    weighted second moment of their offsets from the match (x, y, theta; no cross terms
+    between translation and angle).  A corridor or an open hall -- responses as good
+    all along one direction -- gives a long covariance there, a unique fit a short one
+    (at most one cell and one fine step wide, the floor is left to the caller)."""
+    res = grid.resolution
+    half = max(1, round(0.5 * window.dimension / res))
+    n = max(1, round(window.coarse_angle_resolution / window.fine_angle_resolution))
+    offsets = window.fine_angle_resolution * np.arange(-n, n + 1)
+    rows, cols = _cells_at_angles(grid, local, pose[:2], pose[2] + offsets)
+    xy = _translation_moments(grid.fine, rows[n], cols[n], half, drop * local.shape[0],
+                              2 if half > 6 else 1)
+    scores = _sums_at_rows(grid.fine, rows, cols)
+    return surface_covariance_matrix(xy, res, scores, np.asarray(offsets, dtype=np.float64),
+                                     drop * local.shape[0])
+
+
+@numba.njit(cache=True)
+def _sums_at_rows(fine: NDArray[np.float32], rows: NDArray[np.int64],
+                  cols: NDArray[np.int64]) -> NDArray[np.float64]:
+    out = np.empty(rows.shape[0])
+    for a in range(rows.shape[0]):
+        out[a] = _sum_under(fine, rows[a], cols[a], 0, 0)
+    return out
+
+
+@numba.njit(cache=True)
+def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
+                         cols: NDArray[np.int64], half: int, drop: float, stride: int
+                         ) -> NDArray[np.float64]:
+    """Weighted second moments (cells^2) of the offsets whose summed score is within
+    ``drop`` of the best over ``[-half, half]^2``, sampled every ``stride`` cells."""
+    n = half // stride
+    size = 2 * n + 1
+    scores = np.empty((size, size))
+    for i in range(size):
+        for j in range(size):
+            scores[i, j] = _sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
+    return offset_moments(scores, drop, stride)
+
+
+@numba.njit(cache=True)
+def offset_moments(scores: NDArray[np.float64], drop: float, stride: int
+                   ) -> NDArray[np.float64]:
+    """Weighted second moments (cells^2) of the translations of a response surface:
+    ``scores`` ``(2n+1, 2n+1)`` holds the score at offset ``((i - n) * stride, (j - n) *
+    stride)`` cells (rows: y); the offsets within ``drop`` of the best count, weighted
+    by their score (Karto's ``ComputePositionalCovariance``).  Shared with the
+    branch-and-bound matcher's :func:`navstack.mapping.fast_matcher.surface_covariance`."""
+    size = scores.shape[0]
+    n = size // 2
+    best = -1.0
+    for i in range(size):
+        for j in range(size):
+            if scores[i, j] > best:
+                best = scores[i, j]
+    out = np.zeros((2, 2))
+    norm = 0.0
+    for i in range(size):
+        for j in range(size):
+            v = scores[i, j]
+            if v >= best - drop:
+                dy = (i - n) * stride
+                dx = (j - n) * stride
+                norm += v
+                out[0, 0] += v * dx * dx
+                out[0, 1] += v * dx * dy
+                out[1, 1] += v * dy * dy
+    if norm > 0:
+        out /= norm
+    out[1, 0] = out[0, 1]
+    return out
+
+
+def surface_covariance_matrix(xy: FloatArray, resolution: float, angle_scores: FloatArray,
+                              angle_offsets: FloatArray, drop: float) -> FloatArray:
+    """The (x, y, theta) covariance of a response surface: the translation moments
+    ``xy`` (cells^2, :func:`offset_moments`) in metres, and the response-weighted second
+    moment of the angle offsets whose score is within ``drop`` of the best (Karto's
+    ``ComputeAngularCovariance``); no cross terms between translation and angle."""
+    keep = angle_scores >= angle_scores.max() - drop
+    w = angle_scores[keep]
+    var_th = float((w * angle_offsets[keep] ** 2).sum() / w.sum()) if w.sum() > 0 else 0.0
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = xy * resolution * resolution
+    cov[2, 2] = var_th
+    return cov
 
 
 def _response_and_hessian(grid: LikelihoodGrid, local: FloatArray,

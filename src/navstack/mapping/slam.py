@@ -1,27 +1,36 @@
-"""Graph SLAM from laser scans and odometry, the Karto / slam_toolbox way.
+"""Graph SLAM from laser scans and odometry, the Karto / slam_toolbox way, with global loop
+closure.
 
-Per accepted scan (``minimum_travel_distance`` / ``minimum_travel_heading`` /
-``minimum_time_interval`` gating, ``throttle_scans``):
+Per scan (:meth:`SlamMapper.process_scan`):
 
-1. predict the pose from the last node and the odometry increment;
-2. match the scan against the *running buffer* (the last ``scan_buffer_size`` scans within
-   ``scan_buffer_maximum_scan_distance``) with the correlative matcher
-   (:mod:`navstack.mapping.scan_matcher`); a response of at least
-   ``link_match_minimum_response_fine`` gives the node's pose and a scan-match edge,
-   otherwise the odometry edge is used; reference points the new scan sees through at the
-   predicted pose by more than ``dynamic_point_margin`` (a person who walked on) are
-   left out of this match and of the fine loop match (:mod:`navstack.mapping.free_space`);
-3. look for a loop closure: earlier nodes within ``loop_search_maximum_distance``, outside
-   the current chain, grouped into chains of consecutive scans of at least
-   ``loop_match_minimum_chain_size``; each chain is matched coarsely over
-   ``loop_search_space_dimension`` (response >= ``loop_match_minimum_response_coarse``,
-   variance <= ``loop_match_maximum_variance_coarse``, and -- navstack's addition -- no
-   other place farther than ``loop_match_ambiguity_distance`` scoring more than
-   ``loop_match_maximum_ambiguity`` times the best: on the Intel log this rejects all the
-   corridor aliases that pass Karto's response tests) then finely
-   (response >= ``loop_match_minimum_response_fine``); an accepted match becomes an edge
-   from the chain's nearest scan;
-4. optimise the pose graph incrementally (gtsam ISAM2, :mod:`navstack.mapping.pose_graph`).
+1. *gating* (slam_toolbox semantics): a scan becomes a graph node only after
+   ``minimum_travel_distance`` or ``minimum_travel_heading`` of odometry motion and
+   ``minimum_time_interval`` (``throttle_scans``).  A skipped scan costs a comparison,
+   or one local match when ``match_skipped_scans`` asks for a pose of every scan;
+2. *odometry check* (:mod:`navstack.mapping.odometry_check`): missing odometry, a gap the
+   caller reports, an increment faster than ``odometry_maximum_speed`` /
+   ``odometry_maximum_turn_rate`` allow.  A scan with no odometry at all while the
+   stream goes on is only registered (never a node); one after a gap is predicted by the
+   last motion repeated;
+3. *linking*: the scan is matched against the *running buffer* (the last
+   ``scan_buffer_size`` nodes within ``scan_buffer_maximum_scan_distance``) with the
+   correlative matcher (:mod:`navstack.mapping.scan_matcher`) around the prediction.
+   When the odometry is missing or suspect, or the local match fails, a *wide* search
+   (full circle, as far as the robot could have moved; :mod:`navstack.mapping.recovery`)
+   runs too and the better fit wins (the local one unless it is below
+   ``recovery_response_ratio`` times the wide one); the scan is flagged in
+   :class:`SlamStats`.  The link's covariance is the match's response surface
+   (:meth:`SlamMapper._link_covariance`); where it is degenerate (a corridor, an open
+   hall) an odometry edge is added too (``use_odometry_edges``, with noise learned from
+   the odometry's disagreement with the matches).  Reference points the new scan sees
+   through at the predicted pose by more than ``dynamic_point_margin`` (a person who
+   walked on) are left out of the link match (:mod:`navstack.mapping.free_space`);
+4. *loop closure* against submaps, with a window that grows with the graph's marginal
+   covariance (:mod:`navstack.mapping.loop_closure`);
+5. *optimisation*: ISAM2 every node (gtsam, :mod:`navstack.mapping.pose_graph`); when a
+   closure moves the current pose by more than ``loop_closure_batch_distance`` a batch
+   Levenberg-Marquardt follows.  Closures whose residual after optimisation exceeds
+   ``loop_closure_maximum_chi2`` are removed again.
 
 ``map -> odom`` is the last node's map pose composed with the inverse of its odometry pose.
 """
@@ -30,27 +39,34 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from navstack.core.geometry import se2_between, se2_compose, se2_inverse
+from navstack.mapping.fast_matcher import voxel_filter
 from navstack.mapping.free_space import seen_through
 from navstack.mapping.icp import line_normals, refine_point_to_line
+from navstack.mapping.loop_closure import LoopCloser, tangent_covariance
 from navstack.mapping.occupancy import LogOddsGrid, ScanData
+from navstack.mapping.odometry_check import OdometryCheck, OdometryNoise, odometry_verdict
 from navstack.mapping.pose_graph import PoseGraph
+from navstack.mapping.recovery import wide_link
 from navstack.mapping.scan_matcher import (
     LikelihoodGrid,
     MatchResult,
     SearchWindow,
-    ambiguity,
     match_scan,
+    response_covariance,
 )
 from navstack.mapping.slam_params import SlamParams
 
 FloatArray = NDArray[np.float64]
+#: a link's angular search covers this many standard deviations of the odometry's
+#: rotation error over the step (at least ``coarse_search_angle_offset``)
+LINK_WINDOW_SIGMAS = 3.0
 
 __all__ = ["LaserGeometry", "ScanNode", "SlamMapper", "SlamStats"]
 
@@ -74,7 +90,7 @@ class LaserGeometry:
 
 @dataclass
 class ScanNode:
-    """A processed scan: graph node id, odometry pose, stamp, ranges."""
+    """A processed scan: graph node id, odometry pose (NaN when it had none), stamp."""
 
     node_id: int
     odom: FloatArray
@@ -87,7 +103,7 @@ class ScanNode:
 
 @dataclass
 class SlamStats:
-    """Counters for health checks and benchmarks."""
+    """Counters for health checks, benchmarks and the run summary."""
 
     scans_received: int = 0
     scans_processed: int = 0
@@ -96,6 +112,21 @@ class SlamStats:
     loop_attempts: int = 0
     loop_ambiguous: int = 0
     loop_implausible: int = 0
+    loop_weak: int = 0
+    loop_corridor: int = 0
+    loop_rejected_outliers: int = 0
+    loop_unconfirmed: int = 0
+    batch_optimizations: int = 0
+    odometry_missing: int = 0
+    odometry_implausible: int = 0
+    wide_searches: int = 0
+    wide_recoveries: int = 0
+    unlinked_nodes: int = 0
+    odometry_edges: int = 0
+    #: (scan number, reason) of every scan whose odometry was missing or not trusted
+    odometry_events: list[tuple[int, str]] = field(default_factory=list)
+    #: scan numbers placed by the wide search rather than the local match
+    recovered_scans: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -118,14 +149,18 @@ class SlamMapper:
         self.graph = PoseGraph()
         self.nodes: list[ScanNode] = []
         self.stats = SlamStats()
+        #: node id and pose relative to it of the last scan given to process_scan
+        self.last_scan: tuple[int, FloatArray] | None = None
         self._running: list[int] = []
         self._last_accepted_odom: FloatArray | None = None
         self._last_accepted_stamp = -math.inf
+        self._last_node_stamp = -math.inf
         self._map_to_odom = np.zeros(3)
         self._world_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
-        self._map_cache: _MapCache | None = None
-        self.map_builds = [0, 0]
-        """Maps built by :meth:`build_map` incrementally / from scratch."""
+        self._local_cache: tuple[Any, tuple[FloatArray, FloatArray, NDArray[np.bool_],
+                                            LikelihoodGrid]] | None = None
+        self._poses = np.zeros((0, 3))
+        self._covs = np.zeros((0, 3, 3))
         self.frozen_nodes = 0  # nodes loaded for localization: matched against, never moved
         self._window = SearchWindow(
             dimension=params.correlation_search_space_dimension,
@@ -136,13 +171,29 @@ class SlamMapper:
             angle_variance_penalty=params.angle_variance_penalty,
             minimum_distance_penalty=params.minimum_distance_penalty,
             minimum_angle_penalty=params.minimum_angle_penalty)
-        self._loop_window = SearchWindow(
-            dimension=params.loop_search_space_dimension,
-            coarse_angle_offset=params.coarse_search_angle_offset,
-            coarse_angle_resolution=params.coarse_angle_resolution,
-            fine_angle_resolution=params.coarse_angle_resolution,
-            distance_variance_penalty=1e9, angle_variance_penalty=1e9,
-            minimum_distance_penalty=1.0, minimum_angle_penalty=1.0, refine=False)
+        # refining a branch-and-bound result: it is within a cell and an angle step
+        self.refine_window = SearchWindow(
+            dimension=4.0 * params.loop_search_space_resolution, coarse_angle_offset=0.035,
+            coarse_angle_resolution=0.00873, fine_angle_resolution=params.fine_search_angle_offset,
+            distance_variance_penalty=params.distance_variance_penalty,
+            angle_variance_penalty=params.angle_variance_penalty,
+            minimum_distance_penalty=params.minimum_distance_penalty,
+            minimum_angle_penalty=params.minimum_angle_penalty)
+        self._loops = LoopCloser(self)
+        self._odometry_noise = OdometryNoise(params)
+        self._unplaced: set[int] = set()   # nodes the wide search could not place
+        self._gap_before: dict[int, bool] = {}  # node -> its odometry had a gap before it
+        self._last_placed = 0
+        self._speeds: list[float] = []   # speeds between placed nodes seen [m/s]
+        self._responses: list[float] = []  # responses of the last ordinary links
+        self._closure_edges: list[int] = []  # edge numbers of the loop closures
+        self._closure_events = 0
+        self._live_grid: LogOddsGrid | None = None  # live_map's kept grid
+        self._live_count = 0
+        self._live_poses = np.zeros((0, 3))
+        self._map_cache: _MapCache | None = None
+        self.map_builds = [0, 0]
+        """Maps built by :meth:`build_map` incrementally / from scratch."""
         self._scan_count = 0
         self._start_override: FloatArray | None = None
         self._restart = False  # next scan starts a new odometry frame (after a reload)
@@ -163,20 +214,37 @@ class SlamMapper:
         """Map pose of the robot at ``odom_pose`` with the current correction."""
         return se2_compose(self._map_to_odom, np.asarray(odom_pose, float))
 
+    @property
+    def submaps(self) -> LoopCloser:
+        """The loop closer (its ``submaps`` group the nodes)."""
+        return self._loops
+
     # --- serialization support (navstack.mapping.slam_io) ----------------------------
     def state(self) -> dict[str, Any]:
         """What besides nodes and graph a saved session needs to continue seamlessly."""
         last = self._last_accepted_odom
         return {"running": list(self._running), "map_to_odom": self._map_to_odom.copy(),
                 "last_odom": np.full(3, np.nan) if last is None else last.copy(),
-                "last_stamp": self._last_accepted_stamp}
+                "last_stamp": self._last_accepted_stamp,
+                "odometry_noise": self._odometry_noise.samples()}
 
     def restore_state(self, running: list[int], map_to_odom: FloatArray, last_odom: FloatArray,
-                      last_stamp: float, start_pose: FloatArray | None = None) -> None:
+                      last_stamp: float, start_pose: FloatArray | None = None,
+                      odometry_noise: FloatArray | None = None) -> None:
         """Inverse of :meth:`state`.  With ``start_pose`` the next scan starts a new
         odometry frame at that map pose and is matched against the saved map there."""
+        if odometry_noise is not None:
+            self._odometry_noise.restore(odometry_noise)
         if self.params.mode == "localization":
             self.frozen_nodes = len(self.nodes)
+        self._refresh_poses(full=True)
+        n = len(self.nodes)
+        self._covs = np.zeros((n, 3, 3))
+        for node in self.nodes:
+            self._loops.submaps.add(node.node_id)
+        if n:
+            self._last_node_stamp = self.nodes[-1].stamp
+            self._last_placed = n - 1
         if start_pose is None:
             self._running = list(running)
             self._map_to_odom = np.asarray(map_to_odom, float).copy()
@@ -204,9 +272,9 @@ class SlamMapper:
             pts = pts @ np.array([[c, s], [-s, c]]) + mount[:2]
         return pts
 
-    def _world_points(self, index: int, poses: FloatArray) -> FloatArray:
+    def _world_points(self, index: int) -> FloatArray:
         node = self.nodes[index]
-        pose = poses[index]
+        pose = self._poses[index]
         cached = self._world_cache.get(index)
         if cached is not None and np.array_equal(cached[0], pose):
             return cached[1]
@@ -215,11 +283,21 @@ class SlamMapper:
         self._world_cache[index] = (pose.copy(), world)
         return world
 
+    def _world_features(self, ids: Sequence[int]) -> tuple[FloatArray, FloatArray,
+                                                           NDArray[np.bool_]]:
+        pts, nrm, msk = [], [], []
+        for i in ids:
+            pts.append(self._world_points(i))
+            c, s = math.cos(self._poses[i, 2]), math.sin(self._poses[i, 2])
+            nrm.append(self.nodes[i].normals @ np.array([[c, s], [-s, c]]))
+            msk.append(self.nodes[i].line_like)
+        return np.vstack(pts), np.vstack(nrm), np.concatenate(msk)
+
     # --- gating ----------------------------------------------------------------------
-    def _should_process(self, odom: FloatArray, stamp: float) -> bool:
+    def _should_process(self, odom: FloatArray | None, stamp: float) -> bool:
         p = self.params
         self._scan_count += 1
-        if self._last_accepted_odom is None:
+        if self._last_accepted_odom is None or odom is None:
             return True
         if p.throttle_scans > 1 and self._scan_count % p.throttle_scans != 0:
             return False
@@ -231,40 +309,140 @@ class SlamMapper:
                     and abs(delta[2]) < p.minimum_travel_heading)
 
     # --- main entry ------------------------------------------------------------------
-    def process_scan(self, ranges: NDArray[np.floating], odom_pose: Sequence[float] | FloatArray,
-                     stamp: float) -> bool:
-        """Add a scan taken at ``odom_pose`` (odom frame); True when it became a node."""
+    def process_scan(self, ranges: NDArray[np.floating],
+                     odom_pose: Sequence[float] | FloatArray | None, stamp: float,
+                     odom_gap: bool = False) -> bool:
+        """Add a scan taken at ``odom_pose`` (odom frame); True when it became a node.
+
+        ``odom_pose`` ``None`` means the scan has no odometry; ``odom_gap`` that the
+        odometry *since the previous scan* is missing (its pose is not continuous with
+        the earlier ones).  Either way the scan is placed by a wide search."""
         self.stats.scans_received += 1
-        odom = np.asarray(odom_pose, float)
-        if not self._should_process(odom, stamp):
+        odom = None if odom_pose is None else np.asarray(odom_pose, float)
+        check = odometry_verdict(self.params, odom, stamp, odom_gap,
+                                 None if self._restart else self._last_accepted_odom,
+                                 self._last_accepted_stamp)
+        if not check.suspect and not self._should_process(odom, stamp):
+            self._skipped_scan(ranges, odom)
             return False
+        if odom is None and not odom_gap and self.nodes and self.params.mode == "mapping" \
+                and not self._restart:
+            self._register_without_odometry(ranges, float(stamp), check)
+            return False
+        if check.suspect:
+            self._scan_count += 1
         points = self.scan_points(ranges)
-        if self._start_override is not None:  # first scan after a reload at a given pose
+        if self._start_override is not None and odom is not None:
             self._map_to_odom = se2_compose(self._start_override, se2_inverse(odom))
             self._start_override = None
         if self.params.mode == "localization":
-            self._localize(points, odom)
-            self._last_accepted_odom, self._last_accepted_stamp = odom, stamp
+            if odom is not None:
+                self._localize(points, odom)
+                self._last_accepted_odom, self._last_accepted_stamp = odom, stamp
             return False
         self.stats.scans_processed += 1
         normals, line_like = line_normals(points)
-        node = ScanNode(len(self.nodes), odom, float(stamp),
-                        np.asarray(ranges, np.float32).copy(), points, normals, line_like)
+        node = ScanNode(len(self.nodes), np.full(3, np.nan) if odom is None else odom,
+                        float(stamp), np.asarray(ranges, np.float32).copy(), points,
+                        normals, line_like)
         if not self.nodes:
-            start = self._start_pose(odom)
-            self.nodes.append(node)
-            self.graph.add_node(node.node_id, start)
+            start = self._start_pose(odom if odom is not None else np.zeros(3))
+            self._append_node(node, start)
             self.graph.update()
         else:
-            self._add_linked_node(node)
-            if self.params.do_loop_closing:
-                self._try_loop_closures(node.node_id)
-        self._running.append(node.node_id)
+            self._add_linked_node(node, odom, check)
+        self._after_node(node.node_id)
+        if self.params.do_loop_closing and self.nodes:
+            self._try_loop_closures(node.node_id)
+        if node.node_id not in self._unplaced:
+            self._running.append(node.node_id)
         self._trim_running()
-        self._last_accepted_odom, self._last_accepted_stamp = odom, stamp
-        last = self.graph.pose(node.node_id)
-        self._map_to_odom = se2_compose(last, se2_inverse(odom))
+        if odom is not None:
+            self._last_accepted_odom, self._last_accepted_stamp = odom, stamp
+            self._map_to_odom = se2_compose(self._poses[node.node_id], se2_inverse(odom))
+        self._last_node_stamp = float(stamp)
+        self.last_scan = (node.node_id, np.zeros(3))
         return True
+
+    def _skipped_scan(self, ranges: NDArray[np.floating], odom: FloatArray | None) -> None:
+        """A scan that does not become a node: its pose relative to the last node, by a
+        local match against the running buffer when ``match_skipped_scans`` (else by
+        odometry).  Never added to the graph.  The match and the odometry since the last
+        node are fused by their information, so a match that is free along a corridor
+        or in an open space keeps the odometry's position there."""
+        if not self.nodes or odom is None:
+            self.last_scan = None
+            return
+        last = self.nodes[-1].node_id
+        pose = self._predicted(odom)
+        p = self.params
+        if p.match_skipped_scans and p.mode == "mapping" and self._running:
+            ref, nrm, msk, grid = self._local_map(self._running)
+            match = self.match_points(ref, nrm, msk, self.scan_points(ranges), pose,
+                                      grid=grid)
+            if match is not None and match.response >= p.link_match_minimum_response_fine:
+                odo_cov = self._odometry_noise.covariance(
+                    se2_between(self._poses[last], pose))
+                pose = _fuse(pose, odo_cov, match.pose,
+                             tangent_covariance(match.covariance, match.pose[2]))
+        self.last_scan = (last, se2_between(self._poses[last], pose))
+
+    def _register_without_odometry(self, ranges: NDArray[np.floating], stamp: float,
+                                   check: OdometryCheck) -> None:
+        """A scan that has no odometry while the odometry stream goes on (the next scan's
+        odometry still continues from the last node): it tells the graph nothing the
+        stream does not, so it is only registered -- the local match around the last
+        motion repeated, else the wide search -- for its pose, and never becomes a node
+        (a wrong fit cannot bend the map)."""
+        p = self.params
+        points = self.scan_points(ranges)
+        last = self.nodes[-1].node_id
+        guess = self._motion_prediction(stamp)
+        pose = guess
+        self.stats.odometry_events.append((self.stats.scans_received - 1, check.reason))
+        if self._running and points.shape[0] >= 10:
+            ref, nrm, msk, grid = self._local_map(self._running)
+            match = self.match_points(ref, nrm, msk, points, guess, grid=grid,
+                                      covariance=False)
+            if match is None or match.response < 0.9 * self.typical_response():
+                radius = check.search_radius(p, False, stamp - self.nodes[last].stamp,
+                                             self._seen_speed())
+                wide = wide_link(self, points, guess, radius, self._running)
+                if wide is not None and (match is None or wide.response > match.response):
+                    self.stats.wide_recoveries += 1
+                    self.stats.recovered_scans.append(self.stats.scans_received - 1)
+                    match = wide
+            if match is not None and match.response >= p.link_match_minimum_response_fine:
+                pose = match.pose
+        self.last_scan = (last, se2_between(self._poses[last], pose))
+
+    def register(self, ranges: NDArray[np.floating], guess: FloatArray | Sequence[FloatArray]
+                 ) -> FloatArray | None:
+        """Pose of a scan near ``guess`` against the nodes around it (a local match; no
+        node, no edge), or ``None`` if it does not fit.  With several guesses (a list of
+        poses) each is matched against the nodes around the first and the best fit wins
+        (the scan lies somewhere along a path and one window does not cover it)."""
+        p = self.params
+        guesses = ([np.asarray(guess, float)] if isinstance(guess, np.ndarray)
+                   and guess.ndim == 1 else [np.asarray(g, float) for g in guess])
+        points = self.scan_points(ranges)
+        near = self._nearest_nodes(guesses[0], p.scan_buffer_size,
+                                   p.scan_buffer_maximum_scan_distance)
+        if not near or points.shape[0] < 10:
+            return None
+        ref, nrm, msk, grid = self._local_map(near)
+        best: MatchResult | None = None
+        for g in guesses:
+            match = self.match_points(ref, nrm, msk, points, g, grid=grid, covariance=False)
+            if match is not None and (best is None or match.response > best.response):
+                best = match
+        if best is None or best.response < p.link_match_minimum_response_fine:
+            return None
+        return best.pose
+
+    def _seen_speed(self) -> float:
+        """The robot's top speed so far (90th percentile: log clocks jitter)."""
+        return float(np.percentile(self._speeds, 90)) if len(self._speeds) >= 10 else 0.0
 
     def _start_pose(self, odom: FloatArray) -> FloatArray:
         start = self.params.map_start_pose
@@ -277,122 +455,375 @@ class SlamMapper:
         (equal to the last node composed with the odometry increment since it)."""
         return se2_compose(self._map_to_odom, odom)
 
-    def _nearest_nodes(self, pose: FloatArray) -> list[int]:
-        poses = self.graph.poses()
-        dist = np.hypot(*(poses[:, :2] - pose[:2]).T)
-        near = np.flatnonzero(dist <= self.params.scan_buffer_maximum_scan_distance)
-        return [int(i) for i in near[np.argsort(dist[near])][: self.params.scan_buffer_size]]
+    def _nearest_nodes(self, pose: FloatArray, count: int, radius: float) -> list[int]:
+        poses = self._poses
+        dist = np.hypot(poses[:, 0] - pose[0], poses[:, 1] - pose[1])
+        near = np.flatnonzero(dist <= radius)
+        return [int(i) for i in near[np.argsort(dist[near])][:count]]
 
-    def _match(self, reference_ids: Sequence[int], points: FloatArray, guess: FloatArray,
-               window: SearchWindow, resolution: float, smear: float, block: int = 4,
-               ranges: NDArray[np.floating] | None = None) -> MatchResult | None:
-        """Correlative match (+ ICP polish); with the scan's ``ranges`` the reference
-        points it sees through at ``guess`` are left out (``dynamic_point_margin``)."""
-        keep = None if ranges is None else self._static_mask(reference_ids, ranges, guess)
-        grid = self._grid(reference_ids, points, guess, window, resolution, smear, block, keep)
+    # --- matching --------------------------------------------------------------------
+    def match_points(self, reference: FloatArray, normals: FloatArray,
+                     line_like: NDArray[np.bool_], points: FloatArray, guess: FloatArray,
+                     window: SearchWindow | None = None, grid: LikelihoodGrid | None = None,
+                     covariance: bool = True) -> MatchResult | None:
+        """Correlative match of ``points`` (robot frame) against ``reference`` points
+        (any frame) around ``guess`` in that frame, polished by point-to-line ICP; the
+        local search of ``correlation_search_space_*`` unless ``window`` is given.
+        ``grid`` is the reference's likelihood grid if already built; without
+        ``covariance`` the result's covariance is the floor only (skipped scans)."""
+        win = window or self._window
+        p = self.params
+        if reference.shape[0] == 0 or points.shape[0] < 10:
+            return None
         if grid is None:
-            return None
-        match = match_scan(grid, points, guess, window)
-        if not self.params.use_point_to_line_refinement:
-            return match
-        return self._polish(reference_ids, points, match, keep)
+            c, s = math.cos(guess[2]), math.sin(guess[2])
+            query = points @ np.array([[c, s], [-s, c]]) + guess[:2]
+            reach = float(np.hypot(points[:, 0], points[:, 1]).max())
+            # rotating by the angular window sweeps far points by reach * angle
+            margin = (0.5 * win.dimension + reach * min(win.coarse_angle_offset, math.pi)
+                      + 4 * p.correlation_search_space_smear_deviation)
+            grid = LikelihoodGrid.around(reference, query, margin,
+                                         p.correlation_search_space_resolution,
+                                         p.correlation_search_space_smear_deviation)
+        # the correlative search scores at most one point per 2 x 2 cells: near returns
+        # of a dense lidar would otherwise dominate the score and the cost
+        sparse = voxel_filter(points, 2.0 * p.correlation_search_space_resolution)
+        match = match_scan(grid, sparse, guess, win)
+        pose = match.pose
+        if p.use_point_to_line_refinement:
+            refined, used = refine_point_to_line(reference, normals, line_like, points, pose)
+            limit = 2.0 * p.correlation_search_space_resolution
+            if used and math.hypot(*(refined[:2] - pose[:2])) <= limit:
+                pose = refined
+        unit = self.match_unit()
+        cov = (self._link_covariance(grid, sparse, match, win) if covariance
+               else np.diag(unit * unit))
+        return MatchResult(pose=pose, response=match.response, hessian=match.hessian,
+                           covariance=cov)
 
-    def _static_mask(self, reference_ids: Sequence[int], ranges: NDArray[np.floating],
-                     guess: FloatArray) -> NDArray[np.bool_] | None:
-        """False for reference points the new scan sees through (moved objects, e.g.
-        a person walking ahead), see :mod:`navstack.mapping.free_space`."""
+    def _local_map(self, ids: Sequence[int]) -> tuple[FloatArray, FloatArray,
+                                                      NDArray[np.bool_], LikelihoodGrid]:
+        """Points, normals, line mask and likelihood grid of nodes ``ids`` at their
+        current poses, the grid covering all of them; the last one is kept, so the scans
+        between two nodes (and the next node's link) reuse it."""
+        key = (tuple(ids), self._poses[list(ids)].tobytes())
+        if self._local_cache is not None and self._local_cache[0] == key:
+            return self._local_cache[1]
+        p = self.params
+        ref, nrm, msk = self._world_features(ids)
+        res = p.correlation_search_space_resolution
+        reach = 3.0 * p.correlation_search_space_smear_deviation + 5 * res
+        lo = ref.min(axis=0) - reach
+        hi = ref.max(axis=0) + reach
+        grid = LikelihoodGrid(ref, res, p.correlation_search_space_smear_deviation,
+                              (lo[0], lo[1], hi[0], hi[1]))
+        value = (ref, nrm, msk, grid)
+        self._local_cache = (key, value)
+        return value
+
+    def _static_mask(self, reference: FloatArray, ranges: NDArray[np.floating],
+                     guess: FloatArray, step: FloatArray) -> NDArray[np.bool_] | None:
+        """False for ``reference`` points (world frame) the new scan ``ranges`` sees
+        through from ``guess`` (moved objects, e.g. a person walking ahead), see
+        :mod:`navstack.mapping.free_space`; ``None`` when ``dynamic_point_margin`` is 0.
+
+        The guess rests on the odometry ``step`` since the last node: the margin grows
+        by twice that step's expected error (:class:`OdometryNoise`'s factors, learned
+        from the matches: translation ``k_lin * distance``, heading
+        ``k_ang * (turn + 0.2 distance)`` times the point's range).  With a fixed margin
+        a poor odometry step made whole walls look seen through (Intel with every second
+        scan's odometry missing: 30-80 points of each match, 2-5 m away; ATE 0.118 m
+        instead of 0.051 m without the test)."""
         margin = self.params.dynamic_point_margin
-        if margin <= 0.0 or len(reference_ids) == 0:
+        if margin <= 0.0 or reference.shape[0] == 0:
             return None
-        poses = self.graph.poses()
-        reference = np.vstack([self._world_points(i, poses) for i in reference_ids])
+        k_lin, k_ang = self._odometry_noise.factors()
+        dist = math.hypot(float(step[0]), float(step[1]))
+        heading = k_ang * (abs(float(step[2])) + 0.2 * dist)
         laser = self.laser
         return ~seen_through(ranges, laser.angles, laser.range_min,
                              min(laser.range_max, self.params.max_laser_range),
-                             se2_compose(guess, laser.mount), reference, margin)
+                             se2_compose(guess, laser.mount), reference,
+                             margin + 2.0 * k_lin * dist,
+                             range_fraction=0.02 + 2.0 * heading)
 
-    def _grid(self, reference_ids: Sequence[int], points: FloatArray, guess: FloatArray,
-              window: SearchWindow, resolution: float, smear: float,
-              block: int = 4, keep: NDArray[np.bool_] | None = None) -> LikelihoodGrid | None:
-        """Likelihood grid of the reference scans (their ``keep`` points) covering the
-        whole search."""
-        if len(reference_ids) == 0 or points.shape[0] < 10:
+    def _same_lattice(self, grid: LikelihoodGrid, reference: FloatArray
+                      ) -> LikelihoodGrid | None:
+        """Likelihood grid of ``reference`` on ``grid``'s lattice and extent (the
+        running buffer's grid with the seen-through points left out: the same cells, so
+        the responses stay comparable with the other links')."""
+        if reference.shape[0] == 0:
             return None
-        poses = self.graph.poses()
-        reference = np.vstack([self._world_points(i, poses) for i in reference_ids])
-        if keep is not None:
-            reference = reference[keep]
-            if reference.shape[0] == 0:
-                return None
-        c, s = math.cos(guess[2]), math.sin(guess[2])
-        query = points @ np.array([[c, s], [-s, c]]) + guess[:2]
-        reach = float(np.hypot(points[:, 0], points[:, 1]).max())
-        # rotating by the angular window sweeps far points by reach * angle
-        margin = (0.5 * window.dimension + reach * min(window.coarse_angle_offset, math.pi)
-                  + 4 * smear)
-        return LikelihoodGrid.around(reference, query, margin, resolution, smear, block)
-
-    def _polish(self, reference_ids: Sequence[int], points: FloatArray,
-                match: MatchResult, keep: NDArray[np.bool_] | None = None) -> MatchResult:
-        """Point-to-line ICP from the correlative result; kept only within two search
-        cells of it (the correlative search decides the basin)."""
-        poses = self.graph.poses()
-        refs, normals, masks = [], [], []
-        for i in reference_ids:
-            refs.append(self._world_points(i, poses))
-            c, s = math.cos(poses[i, 2]), math.sin(poses[i, 2])
-            normals.append(self.nodes[i].normals @ np.array([[c, s], [-s, c]]))
-            masks.append(self.nodes[i].line_like)
-        line_like = np.concatenate(masks)
-        if keep is not None:
-            line_like = line_like & keep
-        refined, used = refine_point_to_line(np.vstack(refs), np.vstack(normals),
-                                             line_like, points, match.pose)
-        limit = 2.0 * self.params.correlation_search_space_resolution
-        if used == 0 or math.hypot(*(refined[:2] - match.pose[:2])) > limit:
-            return match
-        return MatchResult(pose=refined, response=match.response, covariance=match.covariance)
-
-    def _add_linked_node(self, node: ScanNode) -> None:
         p = self.params
-        guess = self._predicted(node.odom)
+        res = grid.resolution
+        h, w = grid.fine.shape
+        x0, y0 = float(grid.origin[0]), float(grid.origin[1])
+        return LikelihoodGrid(reference, res, p.correlation_search_space_smear_deviation,
+                              (x0, y0, x0 + (w - 1.5) * res, y0 + (h - 1.5) * res),
+                              grid.block)
+
+    def _link_window(self, step: FloatArray) -> SearchWindow | None:
+        """The link's search window for an odometry ``step`` since the last node: the
+        usual one (``coarse_search_angle_offset``, ``correlation_search_space_dimension``),
+        or wider when the odometry's own uncertainty over this step (:class:`OdometryNoise`,
+        learned from the matches, 3 sigmas) reaches beyond it -- a turn with poor
+        odometry, or a step spread over two scans when one scan between them lost its
+        odometry.  ``None``: the usual."""
+        sigma = math.sqrt(float(self._odometry_noise.covariance(step)[2, 2]))
+        half = LINK_WINDOW_SIGMAS * sigma
+        # and wider in translation, up to the wide search's smallest radius, when the
+        # odometry's position uncertainty over the step does (CSAIL with every second
+        # scan's odometry missing: 2 m steps with odometry 0.3-0.8 m off; ATE 0.22 ->
+        # 0.12 m)
+        width = min(2.0 * LINK_WINDOW_SIGMAS * math.sqrt(float(
+            self._odometry_noise.covariance(step)[0, 0])),
+            2.0 * self.params.recovery_search_minimum_distance)
+        if half <= self._window.coarse_angle_offset and width <= self._window.dimension:
+            return None
+        usual = self._window
+        return replace(usual, coarse_angle_offset=min(math.pi,
+                                                      max(half, usual.coarse_angle_offset)),
+                       dimension=max(width, usual.dimension))
+
+    def match_unit(self) -> FloatArray:
+        """Standard deviations of a perfectly constrained match (x, y, theta): one
+        search cell and two fine angle steps."""
+        p = self.params
+        return np.array([p.correlation_search_space_resolution] * 2
+                        + [2.0 * p.fine_search_angle_offset])
+
+    def _link_covariance(self, grid: LikelihoodGrid, points: FloatArray,
+                         match: MatchResult, window: SearchWindow) -> FloatArray:
+        """Covariance of a match: the spread of its response surface
+        (:func:`~navstack.mapping.scan_matcher.response_covariance`, Karto's) plus a floor
+        of one search cell and two fine angle steps (one standard deviation).
+
+        The Gauss-Newton covariance of the smeared fit is far below the matcher's real
+        accuracy (on Intel and ACES its NEES against the reference was 5x too high) and
+        it misses flat directions that a door frame makes look curved; the response
+        surface sees a corridor or an open hall as what it is, so that the odometry and
+        the loop closures decide the directions a scan leaves open."""
+        unit = self.match_unit()
+        return (response_covariance(grid, points, match.pose, window)
+                + np.diag(unit * unit))
+
+    # --- nodes and edges --------------------------------------------------------------
+    def _append_node(self, node: ScanNode, pose: FloatArray) -> None:
+        self.nodes.append(node)
+        self.graph.add_node(node.node_id, pose)
+        self._poses = np.vstack((self._poses, np.asarray(pose, float)[None]))
+        self._covs = np.concatenate((self._covs, np.zeros((1, 3, 3))))
+        self._loops.submaps.add(node.node_id)
+
+    def _add_linked_node(self, node: ScanNode, odom: FloatArray | None,
+                         check: OdometryCheck) -> None:
+        p = self.params
         restarting = self._restart
-        reference = self._nearest_nodes(guess) if restarting else self._running
-        pose = guess
-        match = None
-        if p.use_scan_matching and restarting:
-            coarse = self._match(reference, node.points, guess, self._loop_window,
-                                 p.loop_search_space_resolution,
-                                 p.loop_search_space_smear_deviation, block=8)
-            if coarse is not None and coarse.response >= p.loop_match_minimum_response_coarse:
-                match = self._match(reference, node.points, coarse.pose, self._window,
-                                    p.correlation_search_space_resolution,
-                                    p.correlation_search_space_smear_deviation)
-        elif p.use_scan_matching:
-            match = self._match(reference, self._covered(node.points, guess, reference),
-                                guess, self._window,
-                                p.correlation_search_space_resolution,
-                                p.correlation_search_space_smear_deviation,
-                                ranges=node.ranges)
-        if match is not None and match.response >= p.link_match_minimum_response_fine:
-            pose, cov = match.pose, match.covariance
+        prev_id = self.nodes[-1].node_id
+        placed_id = self._last_placed
+        # no usable prediction: no odometry, a gap, or the previous scan could not be
+        # placed (its odometry frame is unknown) -> predict by the last motion, search wide
+        # (a previous scan that had no odometry at all leaves the odometry stream intact:
+        # this scan's odometry still continues from the last node that had some)
+        prev_cut = prev_id in self._unplaced and bool(np.isfinite(self.nodes[prev_id].odom).all())
+        missing = check.missing or odom is None or prev_cut
+        guess = (self._predicted(odom) if odom is not None and not missing
+                 else self._motion_prediction(node.stamp))
+        reference = (self._nearest_nodes(guess, p.scan_buffer_size,
+                                         p.scan_buffer_maximum_scan_distance)
+                     if restarting else list(self._running))
+        match: MatchResult | None = None
+        window = None if missing else self._link_window(
+            se2_between(self._poses[prev_id], guess))
+        if p.use_scan_matching and reference:
+            ref, nrm, msk, local = self._local_map(reference)
+            grid: LikelihoodGrid | None = local
+            if not (missing or restarting or check.suspect):
+                # only around a trusted prediction: from a wrong guess the scan would
+                # 'see through' the walls it is to be matched to
+                keep = self._static_mask(ref, node.ranges, guess, se2_between(
+                    self._poses[prev_id], guess))
+                if keep is not None and not keep.all() and keep.mean() >= 0.9:
+                    ref, nrm, msk = ref[keep], nrm[keep], msk[keep]
+                    grid = self._same_lattice(local, ref)
+            points = node.points if restarting or missing else self._covered(
+                node.points, guess, reference)
+            match = self.match_points(ref, nrm, msk, points, guess, window=window,
+                                      grid=grid)
+        failed = match is None or match.response < p.link_match_minimum_response_fine
+        typical = self.typical_response()
+        if missing and match is not None and match.response >= 0.9 * typical:
+            # the predicted motion was right: the local match is as good as a usual
+            # link, no need to search wide (where a corridor's aliases wait)
+            missing_but_local = True
+        else:
+            missing_but_local = False
+        radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
+                                     self._seen_speed())
+        if p.use_scan_matching and not missing_but_local and (
+                check.suspect or restarting or failed or missing):
+            query = node.points
+            if not check.missing and odom is not None and prev_cut:
+                query = self._with_floating(node.points, odom)
+            wide = wide_link(self, query, guess, radius, reference)
+            if missing:
+                # without a usable motion: the wide search's unique fit when it beats
+                # the local fit around the guessed motion, else that local fit
+                chosen = wide if wide is not None and (
+                    failed or match is None or match.response < wide.response) else match
+            elif wide is not None and (failed or match is None or match.response
+                                       < p.recovery_response_ratio * wide.response):
+                # the local match around the odometry loses only to a fit it would
+                # itself count as failed against: below recovery_response_ratio times it
+                chosen = wide
+            else:
+                chosen = match
+            if chosen is not None and chosen is wide and (
+                    match is None or math.hypot(*(wide.pose[:2] - match.pose[:2])) > 0.05):
+                self.stats.wide_recoveries += 1
+                self.stats.recovered_scans.append(self.stats.scans_received - 1)
+            match = chosen
+        if check.suspect:
+            self.stats.odometry_events.append((self.stats.scans_received - 1, check.reason))
+        matched = match is not None and match.response >= p.link_match_minimum_response_fine
+        anchor = reference[0] if restarting and reference else (
+            placed_id if missing else prev_id)
+        if match is not None and matched:
+            pose = match.pose
+            cov = tangent_covariance(match.covariance, pose[2])
+            if not check.suspect and not missing:
+                self._responses = [*self._responses, match.response][-20:]
         else:
             if p.use_scan_matching:
                 self.stats.match_failures += 1
-            anchor_pose = self.graph.pose(reference[0] if restarting and reference
-                                          else self.nodes[-1].node_id)
-            cov = _odometry_covariance(se2_between(anchor_pose, guess))
-            if restarting:  # an unverified restart pose: tie it loosely
-                cov = cov + np.diag([0.25, 0.25, 0.1])
-        prev_id = reference[0] if restarting and reference else self.nodes[-1].node_id
-        self.nodes.append(node)
-        self.graph.add_node(node.node_id, pose)
-        self.graph.add_edge(prev_id, node.node_id, se2_between(self.graph.pose(prev_id), pose),
-                            np.linalg.inv(cov))
+            pose = guess
+            if missing:
+                # not placed: tied loosely to the last placed node, kept out of the
+                # running buffer until the odometry to a later placed scan pins it
+                self.stats.unlinked_nodes += 1
+                self._unplaced.add(node.node_id)
+                cov = np.diag([radius**2, radius**2, math.pi**2])
+            else:
+                cov = self._odometry_noise.covariance(se2_between(self._poses[prev_id], guess))
+                if restarting:  # an unverified restart pose: tie it loosely
+                    cov = cov + np.diag([0.25, 0.25, 0.1])
+        kernel = p.link_match_robust_kernel
+        if matched and missing:
+            # placed without odometry: the fit may be an alias, so the link is a loop
+            # closure in all but name -- robust, so later closures can cut it, and as
+            # uncertain as a recovery search's cell, so the loop search looks wide enough
+            kernel = p.loop_closure_robust_kernel
+            cell = max(p.loop_search_space_resolution, radius / 40.0)
+            cov = cov + np.diag([cell * cell, cell * cell, math.radians(1.0) ** 2])
+        self._append_node(node, pose)
+        self._gap_before[node.node_id] = check.missing or odom is None
+        self.graph.add_edge(anchor, node.node_id, se2_between(self._poses[anchor], pose),
+                            np.linalg.inv(cov), robust_kernel=kernel,
+                            kernel=p.loop_closure_robust_kernel_type)
+        prev_odom = self.nodes[prev_id].odom
+        if (prev_id in self._unplaced and not check.missing and odom is not None
+                and np.isfinite(prev_odom).all()):
+            # the odometry from the unplaced scan to this one: places it once this one is
+            step = se2_between(prev_odom, odom)
+            self.graph.add_edge(prev_id, node.node_id, step,
+                                np.linalg.inv(self._odometry_noise.covariance(step)))
+            if matched:
+                self._unplaced.discard(prev_id)
+        if node.node_id not in self._unplaced:
+            dt = node.stamp - self.nodes[placed_id].stamp
+            if matched and not missing and dt > 0.0:
+                moved = math.hypot(float(pose[0] - self._poses[placed_id, 0]),
+                                   float(pose[1] - self._poses[placed_id, 1]))
+                self._speeds = [*self._speeds, moved / dt][-200:]
+            self._last_placed = node.node_id
+        if (p.use_odometry_edges and matched and not restarting and not check.suspect
+                and odom is not None and np.isfinite(prev_odom).all()):
+            degenerate = _degenerate(cov, self.match_unit())
+            # the scale is learned from well-conditioned matches only: along a corridor
+            # or across an open space the match is what is uncertain (its pull-back along
+            # walls that run out of range taught a wrong scale: simulated campus ATE 0.059
+            # -> 0.024 m); the noise from every match, as before
+            self._odometry_noise.observe(se2_between(prev_odom, odom),
+                                         se2_between(self._poses[prev_id], pose),
+                                         scale=not degenerate)
+            step = se2_between(prev_odom, odom)
+            if p.odometry_scale_correction:
+                step = self._odometry_noise.calibrated_step(step)
+            odo_cov = self._odometry_noise.covariance(step)
+            if self._odometry_noise.calibrated and degenerate and float(
+                    np.max(np.linalg.eigvals(
+                    cov @ np.linalg.inv(odo_cov)).real)) >= 0.1:
+                # the odometry as its own constraint where the scan match is degenerate
+                # (along a corridor, in an open hall: Zhang, Kaess & Singh, ICRA 2016)
+                # and the odometry carries at least a tenth of the match's information
+                # in the weak direction.  On a well-conditioned match it would only
+                # bias the result with the odometry's (often heavy-tailed) error.  Only
+                # the weak directions take the odometry's information (Zhang et al.'s
+                # solution remapping): the scan fixes the others -- in a corridor the
+                # heading and the lateral position -- far better than wheels do.
+                odo_info = np.asarray(np.linalg.inv(odo_cov), float)
+                if p.odometry_edge_weak_directions:
+                    odo_info = _weak_part(odo_info, cov, self.match_unit())
+                self.graph.add_edge(prev_id, node.node_id, step, odo_info,
+                                    robust_kernel=1.0, kernel="cauchy")
+                self.stats.odometry_edges += 1
         self.graph.update()
         if restarting:
             self._running = []
             self._restart = False
+
+    def _with_floating(self, points: FloatArray, odom: FloatArray) -> FloatArray:
+        """``points`` plus the scans of the unplaced nodes just before this scan, drawn
+        in its frame by the odometry between them (a wider view of the same place: one
+        scan alone is often ambiguous, two or three seldom are)."""
+        parts = [points]
+        k = len(self.nodes) - 1
+        while k >= 0 and k in self._unplaced and len(parts) < 4:
+            o = self.nodes[k].odom
+            if not np.isfinite(o).all():
+                break
+            rel = se2_between(odom, o)
+            c, s = math.cos(rel[2]), math.sin(rel[2])
+            parts.append(self.nodes[k].points @ np.array([[c, s], [-s, c]]) + rel[:2])
+            if self._gap_before.get(k, True):
+                break  # its own odometry is not continuous with the one before it
+            k -= 1
+        return np.vstack(parts)
+
+    def typical_response(self) -> float:
+        """Median response of the recent ordinary links (1.0 before there are five)."""
+        return float(np.median(self._responses)) if len(self._responses) >= 5 else 1.0
+
+    def _motion_prediction(self, stamp: float) -> FloatArray:
+        """Pose of a scan without usable odometry: the last placed node moved on by its
+        own last motion (scaled by the elapsed time when the clock tells it)."""
+        b = self._last_placed
+        placed = [i for i in self._running if i != b]
+        if not placed:
+            return self._poses[b].copy()
+        a = placed[-1]
+        step = se2_between(self._poses[a], self._poses[b])
+        dt_ab = self.nodes[b].stamp - self.nodes[a].stamp
+        dt = stamp - self.nodes[b].stamp
+        if dt_ab > 0.0 and dt > 0.0:
+            step = step * min(dt / dt_ab, 3.0)
+        return se2_compose(self._poses[b], step)
+
+    def _after_node(self, node_id: int) -> None:
+        """Refresh the poses ISAM2 moved near the new node and store its marginal."""
+        self._refresh_poses(ids=[*self._running, node_id])
+        self._covs[node_id] = self.graph.marginal_covariance(node_id)
+
+    def refresh_poses(self, ids: Sequence[int]) -> None:
+        """Bring the kept poses of nodes ``ids`` up to the graph's estimate."""
+        self._refresh_poses(ids=ids)
+
+    def _refresh_poses(self, ids: Sequence[int] | None = None, full: bool = False) -> None:
+        if full or ids is None or self._poses.shape[0] != len(self.nodes):
+            self._poses = self.graph.poses() if self.nodes else np.zeros((0, 3))
+            return
+        for i in ids:
+            self._poses[i] = self.graph.pose(i)
 
     def _covered(self, points: FloatArray, guess: FloatArray,
                  reference_ids: Sequence[int]) -> FloatArray:
@@ -413,7 +844,7 @@ class SlamMapper:
         if margin <= 0.0 or len(reference_ids) == 0 or points.shape[0] == 0:
             return points
         usable = min(self.laser.range_max, self.params.max_laser_range) - margin
-        poses = self.graph.poses()
+        poses = self._poses
         c, s = math.cos(guess[2]), math.sin(guess[2])
         world = points @ np.array([[c, s], [-s, c]]) + guess[:2]
         near = np.zeros(points.shape[0], dtype=bool)
@@ -426,105 +857,80 @@ class SlamMapper:
         p = self.params
         self._running = self._running[-p.scan_buffer_size:]
         if len(self._running) > 1:
-            poses = self.graph.poses()
-            here = poses[self._running[-1], :2]
+            here = self._poses[self._running[-1], :2]
             self._running = [i for i in self._running
-                             if np.hypot(*(poses[i, :2] - here))
+                             if np.hypot(*(self._poses[i, :2] - here))
                              <= p.scan_buffer_maximum_scan_distance]
 
     # --- loop closure ----------------------------------------------------------------
-    def _loop_chains(self, node_id: int) -> list[list[int]]:
-        """Chains of earlier scans near ``node_id`` (Karto ``FindPossibleLoopClosure``)."""
-        p = self.params
-        poses = self.graph.poses()
-        near = np.hypot(*(poses[:node_id, :2] - poses[node_id, :2]).T) \
-            <= p.loop_search_maximum_distance
-        # the current chain: contiguous near scans leading up to this one are not loops
-        k = node_id - 1
-        while k >= 0 and near[k]:
-            k -= 1
-        chains: list[list[int]] = []
-        current: list[int] = []
-        for i in range(k + 1):
-            if near[i]:
-                current.append(i)
-            elif current:
-                chains.append(current)
-                current = []
-        if current:
-            chains.append(current)
-        return [c for c in chains if len(c) >= p.loop_match_minimum_chain_size]
-
     def _try_loop_closures(self, node_id: int) -> None:
         p = self.params
-        node = self.nodes[node_id]
-        closed = False
-        for chain in self._loop_chains(node_id):
-            self.stats.loop_attempts += 1
-            guess = self.graph.pose(node_id)
-            grid = self._grid(chain, node.points, guess, self._loop_window,
-                              p.loop_search_space_resolution,
-                              p.loop_search_space_smear_deviation, block=8)
-            if grid is None:
-                continue
-            coarse = match_scan(grid, node.points, guess, self._loop_window)
-            if coarse.response < p.loop_match_minimum_response_coarse:
-                continue
-            if ambiguity(grid, node.points, guess, coarse.pose, self._loop_window,
-                         p.loop_match_ambiguity_distance) > p.loop_match_maximum_ambiguity:
-                self.stats.loop_ambiguous += 1
-                continue
-            if max(coarse.covariance[0, 0], coarse.covariance[1, 1]) \
-                    > p.loop_match_maximum_variance_coarse:
-                continue
-            fine = self._match(chain, node.points, coarse.pose, self._window,
-                               p.correlation_search_space_resolution,
-                               p.correlation_search_space_smear_deviation, ranges=node.ranges)
-            if fine is None or fine.response < p.loop_match_minimum_response_fine:
-                continue
-            poses = self.graph.poses()
-            anchor = chain[int(np.argmin(np.hypot(*(poses[chain, :2]
-                                                    - fine.pose[:2]).T)))]
-            measured = se2_between(poses[anchor], fine.pose)
-            if not self._plausible_drift(anchor, node_id, measured, poses):
-                self.stats.loop_implausible += 1
-                continue
-            self.graph.add_edge(anchor, node_id, measured, np.linalg.inv(fine.covariance),
-                                robust_kernel=p.loop_closure_robust_kernel)
-            self.stats.loop_closures += 1
-            closed = True
-        if closed:
+        candidates = self._loops.candidates(node_id, self._poses, self._covs,
+                                            self._covs[node_id])
+        found = []
+        for candidate in candidates:
+            closure = self._loops.match(node_id, candidate, self._poses)
+            if closure is not None:
+                found.append(closure)
+        closures = self._loops.confirm(found, node_id, self._poses)
+        if not closures:
+            return
+        before = self._poses[node_id].copy()
+        edges = [self.graph.add_edge(c.anchor, c.node, c.measurement,
+                                     np.linalg.inv(c.covariance),
+                                     robust_kernel=p.loop_closure_robust_kernel,
+                                     kernel=p.loop_closure_robust_kernel_type)
+                 for c in closures]
+        self._closure_edges.extend(edges)
+        self.graph.update()
+        self.stats.loop_closures += len(edges)
+        batch = math.hypot(*(self.graph.pose(node_id)[:2] - before[:2])) \
+            > p.loop_closure_batch_distance
+        if batch:
+            self._optimize()
             self.graph.update()
-            self.graph.update()
+            self.stats.batch_optimizations += 1
+        # the running buffer and this node now; the rest when a batch ran or every
+        # tenth closure (the loop search tolerates centimetres of stale positions and
+        # refreshes the members of a submap before drawing it)
+        self._closure_events += 1
+        if batch or self._closure_events % 10 == 0:
+            self._refresh_poses(full=True)
+        else:
+            self._refresh_poses(ids=[*self._running, node_id])
+        self._covs[node_id] = self.graph.marginal_covariance(node_id)
 
-    def _plausible_drift(self, anchor: int, node_id: int, measured: FloatArray,
-                         poses: FloatArray) -> bool:
-        """Would accepting the closure imply more drift than the path since ``anchor``
-        can have accumulated?  The correction must stay below
-        ``loop_match_maximum_drift_base + loop_match_maximum_drift_rate * path length``."""
+    def _optimize(self) -> float:
+        """Batch Levenberg-Marquardt, then the outlier check: a loop closure whose
+        residual at the optimum still exceeds ``loop_closure_maximum_chi2`` (its robust
+        kernel already let it go) is removed and the graph optimised again.  Checked
+        only at a batch optimum: right after a closure lands, ISAM2 has not yet spread
+        the correction, and a good closure that undoes a bad link looks like an
+        outlier there."""
+        cost = self.graph.optimize()
         p = self.params
-        current = se2_between(poses[anchor], poses[node_id])
-        correction = se2_between(current, measured)
-        lo, hi = sorted((anchor, node_id))
-        path = float(np.hypot(*np.diff(poses[lo:hi + 1, :2], axis=0).T).sum())
-        bound = p.loop_match_maximum_drift_base + p.loop_match_maximum_drift_rate * path
-        return math.hypot(correction[0], correction[1]) <= bound
+        bad = [k for k in self._closure_edges
+               if self.graph.edge_chi2(k) > p.loop_closure_maximum_chi2]
+        if bad:
+            for k in bad:
+                self.graph.remove_edge(k)
+            self._closure_edges = [k for k in self._closure_edges if k not in set(bad)]
+            self.stats.loop_rejected_outliers += len(bad)
+            self.stats.loop_closures -= len(bad)
+            cost = self.graph.optimize()
+        return cost
 
     # --- localization mode -----------------------------------------------------------
     def _localize(self, points: FloatArray, odom: FloatArray) -> None:
         """Match against the loaded graph's scans near the predicted pose; move map->odom."""
         p = self.params
         guess = self.pose_of(odom)
-        poses = self.graph.poses()
-        near = np.flatnonzero(np.hypot(*(poses[:, :2] - guess[:2]).T)
-                              <= p.scan_buffer_maximum_scan_distance)
-        if near.size == 0:
+        near = self._nearest_nodes(guess, p.scan_buffer_size,
+                                   p.scan_buffer_maximum_scan_distance)
+        if not near:
             self.stats.match_failures += 1
             return
-        nearest = near[np.argsort(np.hypot(*(poses[near, :2] - guess[:2]).T))]
-        match = self._match(list(nearest[: p.scan_buffer_size]), points, guess, self._window,
-                            p.correlation_search_space_resolution,
-                            p.correlation_search_space_smear_deviation)
+        match = self.match_points(*self._world_features(near), points, guess)
         if match is None or match.response < p.link_match_minimum_response_fine:
             self.stats.match_failures += 1
             return
@@ -534,12 +940,17 @@ class SlamMapper:
     # --- results -------------------------------------------------------------------
     def finalize(self) -> float:
         """Batch Levenberg-Marquardt over the whole graph (end of an offline run or before
-        saving); returns the graph cost.  ``map -> odom`` follows the optimised last node."""
+        saving); returns the graph cost.  ``map -> odom`` follows the optimised last
+        node with odometry."""
         if not self.nodes:
             return 0.0
-        cost = self.graph.optimize()
-        last = self.nodes[-1]
-        self._map_to_odom = se2_compose(self.graph.pose(last.node_id), se2_inverse(last.odom))
+        cost = self._optimize()
+        self._refresh_poses(full=True)
+        for node in reversed(self.nodes):
+            if not np.isnan(node.odom).any():
+                self._map_to_odom = se2_compose(self._poses[node.node_id],
+                                                se2_inverse(node.odom))
+                break
         return cost
 
     def trajectory(self, odom_poses: FloatArray, node_index: NDArray[np.int64]) -> FloatArray:
@@ -553,9 +964,58 @@ class SlamMapper:
             if n < 0:
                 out[k] = se2_compose(poses[0], se2_between(self.nodes[0].odom, o)) \
                     if self.nodes else o
+            elif np.isnan(self.nodes[n].odom).any() or np.isnan(o).any():
+                out[k] = poses[n]
             else:
                 out[k] = se2_compose(poses[n], se2_between(self.nodes[n].odom, o))
         return out
+
+    def live_map(self, recent: Sequence[tuple[NDArray[np.floating], FloatArray]] = ()
+                 ) -> LogOddsGrid:
+        """The map while mapping, cheap enough to publish every second: the node scans
+        are added to a kept grid as they come (all of them again only when the graph
+        moved an integrated node by more than half a cell or a fifth of a degree -- a
+        loop closure), and a copy of it gets the free space of the ``recent`` scans
+        ``(ranges, map pose)`` on top (``clear_only``: a person who walked away is
+        cleared by the latest scans, not only by the next node's).  The SLAM node
+        publishes it without ``recent``: in the office route that overlay eroded walls
+        the planner then routed through (docs/mapping.md, "Online")."""
+        res = self.params.resolution
+        poses = self.poses()
+        n_done = self._live_count
+        if self._live_grid is None or n_done > poses.shape[0] or (n_done and _moved(
+                self._live_poses[:n_done], poses[:n_done], 0.5 * res, math.radians(0.2))):
+            self._live_grid = LogOddsGrid(res)
+            n_done = 0
+        grid = self._live_grid
+        if poses.shape[0] > n_done:
+            self._integrate(grid, poses[n_done:], [n.ranges for n in self.nodes[n_done:]])
+            self._live_count = poses.shape[0]
+            self._live_poses = poses.copy()
+        if not recent:
+            return grid
+        out = grid.copy()
+        self._integrate(out, np.array([pose for _, pose in recent]),
+                        [ranges for ranges, _ in recent], clear_only=True)
+        return out
+
+    def _integrate(self, grid: LogOddsGrid, poses: FloatArray,
+                   ranges: Sequence[NDArray[np.floating]], clear_only: bool = False) -> None:
+        usable = min(self.laser.range_max, self.params.max_laser_range)
+        full_circle = bool(np.ptp(self.laser.angles) > 1.9 * math.pi)
+        scans = [ScanData(drop_isolated_no_returns(np.asarray(r, dtype=float),
+                                                   self.laser.range_min,
+                                                   self.laser.range_max, full_circle),
+                          self.laser.angles, self.laser.range_min, self.laser.range_max)
+                 for r in ranges]
+        grid.integrate_scans(poses, scans, usable, sensor_pose=self.laser.mount,
+                             clear_only=clear_only)
+
+    def integrate_into(self, grid: LogOddsGrid, poses: FloatArray) -> None:
+        """Draw every node's scan into ``grid`` at ``poses`` (N, 3) instead of its own
+        (a map of the graph moved as a whole, e.g. aligned for scoring)."""
+        self._integrate(grid, np.asarray(poses, dtype=np.float64),
+                        [node.ranges for node in self.nodes])
 
     def build_map(self, resolution: float | None = None, *,
                   incremental: bool = True) -> LogOddsGrid:
@@ -566,7 +1026,8 @@ class SlamMapper:
         them), only the new nodes' scans are added to it -- the same log-odds updates in
         the same order as a rebuild, on the same lattice (world (0, 0)), so the same map,
         at a cost that no longer grows with the number of nodes.  ``incremental=False``
-        always rebuilds from every node.
+        always rebuilds from every node.  (:meth:`live_map`, the published map, keeps
+        its own grid and tolerates half a cell of pose change before it redraws.)
         """
         res = self.params.resolution if resolution is None else resolution
         if not self.nodes:
@@ -585,11 +1046,7 @@ class SlamMapper:
         else:
             grid = LogOddsGrid(res)
         if start < n:
-            usable = min(self.laser.range_max, self.params.max_laser_range)
-            scans = [ScanData(node.ranges.astype(float), self.laser.angles,
-                              self.laser.range_min, self.laser.range_max)
-                     for node in self.nodes[start:n]]
-            grid.integrate_scans(poses[start:], scans, usable, sensor_pose=self.laser.mount)
+            self._integrate(grid, poses[start:], [node.ranges for node in self.nodes[start:n]])
         if incremental:
             self._map_cache = _MapCache(res, n, poses.copy(), self.nodes[n - 1], grid)
             self.map_builds[0 if start else 1] += 1
@@ -597,9 +1054,75 @@ class SlamMapper:
         return grid
 
 
-def _odometry_covariance(delta: FloatArray) -> FloatArray:
-    """Covariance of an odometry-only edge: 10% of the motion plus a floor."""
-    dist = math.hypot(delta[0], delta[1])
-    sxy = 0.05 + 0.1 * dist
-    sth = 0.05 + 0.1 * abs(delta[2])
-    return np.diag([sxy * sxy, sxy * sxy, sth * sth])
+def _fuse(a: FloatArray, cov_a: FloatArray, b: FloatArray, cov_b: FloatArray) -> FloatArray:
+    """Information-weighted mean of two poses (covariances in their tangent spaces, taken
+    as the same frame: the poses are centimetres apart)."""
+    d = se2_between(a, b)
+    info_a, info_b = np.linalg.inv(cov_a), np.linalg.inv(cov_b)
+    step = np.linalg.solve(info_a + info_b, info_b @ d)
+    return se2_compose(a, step)
+
+
+def _moved(a: FloatArray, b: FloatArray, distance: float, angle: float) -> bool:
+    """Did any pose move by more than ``distance`` or ``angle``?"""
+    d = b - a
+    return bool(np.any(np.hypot(d[:, 0], d[:, 1]) > distance)
+                or np.any(np.abs(np.remainder(d[:, 2] + math.pi, 2 * math.pi) - math.pi)
+                          > angle))
+
+
+def drop_isolated_no_returns(ranges: FloatArray, range_min: float, range_max: float,
+                             wrap: bool, run: int = 2) -> FloatArray:
+    """``ranges`` with every run of at most ``run`` beams without a return (at or beyond
+    ``range_max``) between two beams with returns set to NaN (dropped).
+
+    A map clears along no-return beams up to the usable range (slam_toolbox does); a
+    single beam that misses its wall (dropout, a dark or glossy spot) would cut a free
+    line through the wall and far behind it -- a gap the planner takes.  An open
+    direction (a door, a long corridor) spans many beams and is still cleared."""
+    r = np.array(ranges, dtype=np.float64)
+    ret = np.isfinite(r) & (r >= range_min) & (r < range_max)
+    none = ~ret & ~np.isnan(r) & ~(r < range_min)
+    n = r.size
+    idx = np.flatnonzero(none)
+    if idx.size == 0 or n < 3:
+        return r
+    # runs of consecutive no-return beams
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    for a, b in zip(starts, ends, strict=True):
+        if b - a + 1 > run:
+            continue
+        left, right = a - 1, b + 1
+        if not wrap and (left < 0 or right >= n):
+            continue
+        if ret[left % n] and ret[right % n]:
+            r[a:b + 1] = np.nan
+    return r
+
+
+def _degenerate(cov: FloatArray, unit: FloatArray, ratio: float = 3.0) -> bool:
+    """Is a match covariance (scaled by the perfect match's deviations ``unit``) at least
+    ``ratio`` times longer in its weakest direction than in its strongest?"""
+    scaled = cov / (unit[:, None] * unit[None, :])
+    w = np.linalg.eigvalsh(0.5 * (scaled + scaled.T))
+    return bool(w[-1] >= ratio * ratio * max(float(w[0]), 1e-12))
+
+
+def _weak_part(information: FloatArray, cov: FloatArray, unit: FloatArray,
+               ratio: float = 3.0) -> FloatArray:
+    """``information`` restricted to the weak directions of a match covariance ``cov``
+    (those at least ``ratio`` times longer than its strongest, measured in the perfect
+    match's deviations ``unit``): ``P I P`` with ``P`` the projector on them, plus a
+    negligible information (a thousand ``unit`` deviations) elsewhere so that it stays
+    positive definite."""
+    s_inv = 1.0 / unit
+    scaled = cov * s_inv[:, None] * s_inv[None, :]
+    w, v = np.linalg.eigh(0.5 * (scaled + scaled.T))
+    weak = v[:, w >= ratio * ratio * max(float(w[0]), 1e-12)]
+    proj = weak @ weak.T
+    info_scaled = information * unit[:, None] * unit[None, :]
+    part = proj @ info_scaled @ proj
+    part = 0.5 * (part + part.T) * s_inv[:, None] * s_inv[None, :]
+    return part + np.diag(1.0 / (1e3 * unit) ** 2)

@@ -63,6 +63,7 @@ def save_posegraph(mapper: SlamMapper, path: str | Path) -> Path:
         "map_to_odom": state["map_to_odom"],
         "last_odom": state["last_odom"],
         "last_stamp": np.array(state["last_stamp"]),
+        "odometry_noise": state["odometry_noise"],
         **graph,
     }
     with out.open("wb") as fh:
@@ -111,5 +112,6 @@ def load_posegraph(path: str | Path, params: SlamParams | None = None,
     mapper.restore_state(running=[int(i) for i in arrays["running"]],
                          map_to_odom=np.asarray(arrays["map_to_odom"], float),
                          last_odom=np.asarray(arrays["last_odom"], float),
-                         last_stamp=float(arrays["last_stamp"]), start_pose=start_pose)
+                         last_stamp=float(arrays["last_stamp"]), start_pose=start_pose,
+                         odometry_noise=arrays.get("odometry_noise"))
     return mapper

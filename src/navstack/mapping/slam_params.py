@@ -9,6 +9,15 @@ Two knobs keep slam_toolbox's name but not its default, for the reasons given:
   is four times cheaper to build.
 * ``correlation_search_space_smear_deviation`` 0.05 m (slam_toolbox 0.1): measured on
   the Intel log, 0.1 blurs the walls enough to raise the relative pose error by 30%.
+* ``scan_buffer_size`` 15 (slam_toolbox 10): a longer local map; on CSAIL the error over
+  ten scans fell from 0.098 to 0.07 m (docs/mapping.md).
+* ``loop_search_space_dimension`` 2.0 m (slam_toolbox 8.0) is the *smallest* loop search
+  window: the window follows the graph's uncertainty
+  (:mod:`navstack.mapping.loop_closure`), up to ``loop_search_maximum_space_dimension``.
+* ``loop_search_space_smear_deviation`` 0.05 m (slam_toolbox 0.03): the loop grids'
+  responses are compared with the link matcher's thresholds, so they smear alike.
+
+The navstack additions (every one documented in docs/mapping.md) are commented below.
 
 The Ceres solver keys are accepted so slam_toolbox files load; the back end is gtsam
 (:mod:`navstack.mapping.pose_graph`), so they have no effect, and
@@ -70,7 +79,7 @@ class SlamParams(Params):
     use_point_to_line_refinement: bool = True
     minimum_travel_distance: float = Field(0.5, ge=0.0)
     minimum_travel_heading: float = Field(0.5, ge=0.0)
-    scan_buffer_size: int = Field(10, ge=1)
+    scan_buffer_size: int = Field(15, ge=1)
     scan_buffer_maximum_scan_distance: float = Field(10.0, gt=0.0)
     link_match_minimum_response_fine: float = Field(0.1, ge=0.0, le=1.0)
     link_scan_maximum_distance: float = Field(1.5, ge=0.0)
@@ -83,9 +92,9 @@ class SlamParams(Params):
     correlation_search_space_dimension: float = Field(0.5, gt=0.0)
     correlation_search_space_resolution: float = Field(0.02, gt=0.0)
     correlation_search_space_smear_deviation: float = Field(0.05, gt=0.0)
-    loop_search_space_dimension: float = Field(8.0, gt=0.0)
+    loop_search_space_dimension: float = Field(2.0, gt=0.0)
     loop_search_space_resolution: float = Field(0.05, gt=0.0)
-    loop_search_space_smear_deviation: float = Field(0.03, gt=0.0)
+    loop_search_space_smear_deviation: float = Field(0.05, gt=0.0)
     distance_variance_penalty: float = Field(0.5, gt=0.0)
     angle_variance_penalty: float = Field(1.0, gt=0.0)
     fine_search_angle_offset: float = Field(0.00349, gt=0.0)
@@ -103,6 +112,50 @@ class SlamParams(Params):
     loop_match_maximum_drift_base: float = Field(0.3, gt=0.0)
     loop_match_maximum_drift_rate: float = Field(0.05, ge=0.0)
     loop_closure_robust_kernel: float = Field(1.0, ge=0.0)
+    # navstack: global loop closure (mapping/loop_closure.py, docs/mapping.md): the
+    # kernel of loop edges (and of links, 0 = none), the search region and window in
+    # sigmas of the relative covariance, at most that big, the smallest angular window,
+    # candidates per node, nodes per submap, corridor closures, closures confirmed by
+    # another within this many nodes, a submap tried at most every this many nodes, the
+    # residual of a closure after a batch optimisation above which it is removed, and
+    # the correction that triggers a batch optimisation [m]
+    loop_closure_robust_kernel_type: Literal["cauchy", "huber", "dcs"] = "cauchy"
+    link_match_robust_kernel: float = Field(0.0, ge=0.0)
+    loop_search_drift_sigmas: float = Field(3.0, ge=0.0)
+    loop_search_maximum_space_dimension: float = Field(60.0, gt=0.0)
+    loop_search_minimum_angle_offset: float = Field(0.1, gt=0.0)
+    loop_search_maximum_candidates: int = Field(1, ge=1)
+    loop_match_submap_size: int = Field(10, ge=1)
+    loop_match_corridor_closures: bool = True
+    loop_match_confirmation_nodes: int = Field(5, ge=0)
+    loop_search_node_interval: int = Field(3, ge=1)
+    loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
+    # navstack: a closure's fine response must reach this share of the ordinary links'
+    # typical (median) response (0 = off): partial views fit biased (docs/mapping.md)
+    loop_match_minimum_response_ratio: float = Field(0.75, ge=0.0, le=1.0)
+    loop_closure_batch_distance: float = Field(0.5, gt=0.0)
+    # navstack: odometry edges where a match is degenerate and their initial noise
+    # (fractions of the motion), the speed and turn rate odometry may not exceed, the
+    # wide search's radius limits [m] and the response ratio the local match must keep
+    # against it (mapping/odometry_check.py, mapping/recovery.py)
+    use_odometry_edges: bool = True
+    # navstack: rescale an odometry edge's translation by the scale learned from
+    # well-conditioned matches (odometry_check.OdometryNoise); the log profile turns it
+    # on -- online it made the worn-odometry office route worse (docs/mapping.md)
+    odometry_scale_correction: bool = False
+    # navstack: an odometry edge informs only the match's weak directions (log profile
+    # on; online it made the office waypoint route fail two goals, docs/mapping.md)
+    odometry_edge_weak_directions: bool = False
+    odometry_linear_error: float = Field(0.05, ge=0.0)
+    odometry_angular_error: float = Field(0.05, ge=0.0)
+    odometry_maximum_speed: float = Field(1.0, gt=0.0)
+    odometry_maximum_turn_rate: float = Field(3.0, gt=0.0)
+    recovery_search_minimum_distance: float = Field(1.0, gt=0.0)
+    recovery_search_maximum_distance: float = Field(5.0, gt=0.0)
+    recovery_response_ratio: float = Field(0.6, ge=0.0, le=1.0)
+    # navstack: give every scan that is not a node a pose by a local match (offline runs
+    # score every scan); slam_toolbox drops them
+    match_skipped_scans: bool = False
     # navstack: reference points a new scan sees through by more than this margin [m]
     # (+ 2% of their range) are left out of its scan match -- people walking, see
     # mapping/free_space.py; 0 = off (slam_toolbox's behaviour)

@@ -249,17 +249,20 @@ class ControllerServer(Node):
         """The plan in the controller's frame.
 
         Re-transformed only when the plan changes or ``frame <- plan frame`` has moved by
-        more than one costmap cell (5 cm) / 0.02 rad since the last transform: the
-        controller keeps one plan object (a new object resets DWB's critics, as Nav2's
-        setPlan does) and odometry jitter does not rebuild the plan every cycle.
+        more than a fifth of a costmap cell (1 cm) / 0.005 rad since the last transform:
+        the controller keeps one plan object (a new object resets DWB's critics, as
+        Nav2's setPlan does) and odometry jitter does not rebuild the plan every cycle,
+        while a SLAM correction of ``map -> odom`` moves the plan's end with the goal the
+        goal checker sees (5 cm of lag left the robot turning in place just outside
+        the goal tolerance).
         """
         src = path.header.frame_id or frame
         if src == frame:
             return path
         t = self.tf.lookup_pose2d(frame, src)
         cached = self._plan_cache
-        if (cached is not None and cached[0] is path and t.distance_to(cached[1]) < 0.05
-                and abs(angle_diff(t.theta, cached[1].theta)) < 0.02):
+        if (cached is not None and cached[0] is path and t.distance_to(cached[1]) < 0.01
+                and abs(angle_diff(t.theta, cached[1].theta)) < 0.005):
             return cached[2]
         moved = Path.from_array(se2_compose(t.as_array(), path.as_array()), frame,
                                 path.header.stamp)

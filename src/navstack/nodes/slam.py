@@ -32,7 +32,11 @@ import numpy as np
 from navstack.core.msgs import (
     Header,
     LaserScan,
+    MapMetaData,
     OccupancyGrid,
+    Point,
+    Pose,
+    Quaternion,
     TFMessage,
     Transform,
     TransformStamped,
@@ -46,6 +50,19 @@ from navstack.runtime.node import Node, Runtime
 from navstack.runtime.tf_filter import TfMessageFilter
 
 __all__ = ["SlamNode", "pad_to_extent"]
+
+
+def unknown_canvas(extent: list[float], resolution: float, frame_id: str,
+                   stamp: float) -> OccupancyGrid:
+    """An all-unknown map covering ``[xmin, ymin, xmax, ymax]`` (the costmaps take its
+    size before SLAM has seen anything)."""
+    xmin, ymin, xmax, ymax = (float(v) for v in extent)
+    width = max(1, math.ceil((xmax - xmin) / resolution - 1e-9))
+    height = max(1, math.ceil((ymax - ymin) / resolution - 1e-9))
+    info = MapMetaData(stamp, resolution, width, height,
+                       Pose(Point(xmin, ymin, 0.0), Quaternion.from_yaw(0.0)))
+    return OccupancyGrid(Header(stamp, frame_id), info,
+                         np.full((height, width), -1, dtype=np.int8))
 
 
 def pad_to_extent(grid: OccupancyGrid, extent: list[float]) -> OccupancyGrid:
@@ -87,6 +104,7 @@ class SlamNode(Node):
         self._worker: threading.Thread | None = None
         self._lock = threading.Lock()
         self._loaded: SlamMapper | None = None
+        self._mapped = False  # the first map with a scan in it was published
         self._scans: TfMessageFilter[LaserScan, tuple[Pose2DMsg, Pose2DMsg]] = TfMessageFilter(
             self, self._scan_transforms, self._on_scan_placed,
             queue_size=self.params.scan_queue_size, timeout=self.params.transform_timeout,
@@ -108,6 +126,11 @@ class SlamNode(Node):
                                    self._deserialize_request)
 
     def on_activate(self) -> None:
+        if self.params.map_minimum_extent is not None and self.maps_published == 0:
+            self.publish_map()  # the canvas: costmaps know the map's size from the start
+        # map -> odom from now on: the periodic messages are stamped transform_timeout
+        # ahead, which would leave the first lookups (the first plan) before the edge
+        self._publish_transform(ahead=False)
         self._publish_transform()
 
     def on_cleanup(self) -> None:
@@ -150,7 +173,8 @@ class SlamNode(Node):
         odom_arr = np.array([odom.x, odom.y, odom.theta])
         ranges = np.asarray(scan.ranges, np.float32)
         if p.synchronous:
-            if self.mapper.process_scan(ranges, odom_arr, stamp) and self.maps_published == 0:
+            if self.mapper.process_scan(ranges, odom_arr, stamp) and not self._mapped:
+                self._mapped = True
                 self.publish_map()  # navigation needs a first map right away
             return
         with self._lock:
@@ -174,32 +198,41 @@ class SlamNode(Node):
     # --- outputs -------------------------------------------------------------------------
     @property
     def map_to_odom(self) -> np.ndarray:
-        return np.zeros(3) if self.mapper is None else self.mapper.map_to_odom
+        """``map -> odom``; before the first scan, ``map_start_pose`` (the odometry
+        starts at its origin), so that the robot is where navigation expects it."""
+        if self.mapper is not None:
+            return self.mapper.map_to_odom
+        start = self.params.map_start_pose
+        return np.zeros(3) if start is None else np.asarray(start[:3], dtype=float)
 
-    def _publish_transform(self) -> None:
+    def _publish_transform(self, ahead: bool = True) -> None:
         self._scans.drain()
         p = self.params
         m2o = self.map_to_odom
         transform = Transform.from_pose2d(Pose2DMsg(float(m2o[0]), float(m2o[1]),
                                                     float(m2o[2])))
-        stamp = self.now + p.transform_timeout
+        stamp = self.now + (p.transform_timeout if ahead else 0.0)
         self.pub_tf.publish(TFMessage((TransformStamped(Header(stamp, p.map_frame),
                                                         p.odom_frame, transform),)))
 
     def occupancy_grid(self) -> OccupancyGrid | None:
-        """The current map as an OccupancyGrid (None before the first scan)."""
-        if self.mapper is None or not self.mapper.nodes:
-            return None
-        with self._lock:
-            grid = self.mapper.build_map()
-        msg = grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
+        """The current map as an OccupancyGrid; before the first scan an unknown canvas
+        of ``map_minimum_extent`` (``None`` without one)."""
         extent = self.params.map_minimum_extent
+        if self.mapper is None or not self.mapper.nodes:
+            return None if extent is None else unknown_canvas(
+                extent, self.params.resolution, self.params.map_frame, self.now)
+        with self._lock:
+            # the node scans only: clearing with the latest scans on top eroded walls the
+            # planner then routed through (docs/mapping.md, "Online")
+            grid = self.mapper.live_map()
+        msg = grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
         return msg if extent is None else pad_to_extent(msg, extent)
 
     def saved_map(self) -> OccupancyGrid | None:
         """The map as ``save_map`` writes it: every node scan rendered at its current pose
-        (the published live map also clears with the latest scans and re-renders only
-        after a loop closure moves the graph, so it differs from this in a few cells)."""
+        (the published live map re-renders only after a loop closure moves the graph by
+        half a cell, so it differs from this in a few cells)."""
         if self.mapper is None or not self.mapper.nodes:
             return None
         with self._lock:

@@ -171,8 +171,12 @@ class MapGridCritic(TrajectoryCritic[G]):
         if ctx.batch is not None:
             mx, my, inside = self._cells(ctx.batch, ctx.costmap)
             need = np.zeros(data.shape, dtype=np.bool_)
+            # the cells the scoring reads: below the blocking cost, which is LETHAL while
+            # the robot starts inside the inscribed band (marking only cells below
+            # INSCRIBED there stopped the wave before the robot's own cell, and every
+            # sample was "unreachable": the robot could never drive out)
             _mark_needed(data, mx.reshape(-1), my.reshape(-1), inside.reshape(-1),
-                         INSCRIBED_INFLATED_OBSTACLE, need)
+                         blocking_cost(ctx.costmap, ctx.pose), need)
         self.values = self._wave.compute(data, seed_x, seed_y, True, need)
 
     def score(self, batch: TrajectoryBatch, ctx: CriticContext) -> FloatArray:

@@ -26,6 +26,10 @@ class StageProgress:
         self._bar: Any = None
         self._task: Any = None
         self.lines: list[str] = []
+        #: seconds between two detail lines when not on a terminal
+        self.detail_period = 10.0
+        self._detail = ""
+        self._detail_shown = time.perf_counter()
 
     def __enter__(self) -> StageProgress:
         if self.tty:
@@ -64,6 +68,23 @@ class StageProgress:
         if self._bar is not None:
             self._bar.update(self._task, completed=done, total=total)
 
+    def detail(self, text: str) -> None:
+        """What the current stage is doing (``navstack slam``: scans, nodes, loop closures,
+        ms per scan): shown beside the bar on a terminal; otherwise a line ``  <text>``
+        at most every :attr:`detail_period` seconds, and the last one is appended to the
+        stage's line when it ends."""
+        self._detail = text
+        if self._bar is not None:
+            if self._task is not None and self._stage is not None:
+                self._bar.update(self._task,
+                                 description=f"{self.title}: {self._stage[0]} ({text})")
+            return
+        now = time.perf_counter()
+        if now - self._detail_shown >= self.detail_period:
+            self._detail_shown = now
+            self.stream.write(f"  {text}\n")
+            self.stream.flush()
+
     def _finish_stage(self) -> None:
         if self._stage is None:
             return
@@ -71,6 +92,9 @@ class StageProgress:
         self._stage = None
         count = f" {done}/{total}" if total > 1 else ""
         line = f"{self.title}: {stage}{count} in {time.perf_counter() - t0:.1f} s"
+        if self._detail:
+            line += f" ({self._detail})"
+            self._detail = ""
         self.lines.append(line)
         if self._bar is None:
             self.stream.write(line + "\n")

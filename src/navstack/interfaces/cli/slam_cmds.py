@@ -16,6 +16,7 @@ from navstack.interfaces.cli.options import (
     prefer,
 )
 from navstack.interfaces.cli.progress import StageProgress
+from navstack.mapping.map_metrics import TrajectoryScores
 
 
 @app.command()
@@ -35,11 +36,18 @@ def slam(
     carmen: Annotated[Path | None, typer.Option(
         "--carmen", hidden=True, help="Deprecated spelling of the LOG argument.")] = None,
 ) -> None:
-    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its error (RPE).
+    """Offline SLAM on a CARMEN log: map, trajectory, pose graph and its errors.
 
-    Shows progress per stage (read log, mapping, optimise) on stderr.
+    Shows progress per stage (read log, mapping, optimise, write outputs) on stderr, and
+    while mapping the scans, nodes, loop closures and ms per scan.
     """
-    from navstack.mapping.offline import run_carmen, summary, write_outputs
+    from navstack.mapping.offline import (
+        ScanProgress,
+        run_carmen,
+        summary,
+        warm_up,
+        write_outputs,
+    )
 
     log = prefer("the LOG argument", log, "--carmen", carmen, warn)
     if log is None:
@@ -50,10 +58,17 @@ def slam(
         check_out_file(json_out, "--json")
     try:
         overrides = slam_overrides(params)
+        warm_up()
         with StageProgress("slam") as progress:
+
+            def detail(p: ScanProgress) -> None:
+                progress.detail(f"{p.scans}/{p.total} scans, {p.nodes} nodes, "
+                                f"{p.loop_closures} loop closures, "
+                                f"{p.ms_per_scan:.1f} ms/scan")
+
             result = run_carmen(log, overrides, max_scans=max_scans,
                                 params_file=str(params) if params is not None else "",
-                                progress=progress)
+                                progress=progress, detail=detail)
             progress("write outputs", 0, 1)
             files = write_outputs(result, out)
     except (NavstackError, OSError) as exc:
@@ -78,9 +93,32 @@ def slam(
         typer.echo(line)
     else:
         typer.echo("RPE: not scored (the log has no corrected reference poses)")
+    if result.scores is not None:
+        typer.echo(_global_line(result.scores, result.odometry_scores))
+    odo = report["odometry"]
+    typer.echo(f"odometry: {odo['gaps_in_log']} gaps in the log, {odo['events']} scans with "
+               f"missing or implausible odometry, {odo['recovered']} placed by the wide "
+               "search")
     speed = (f"speedup {result.speedup:.0f}x over the log's {result.log_duration_s:.0f} s"
              if result.speedup is not None and result.log_duration_s is not None
              else "speedup unknown (log timestamps too coarse)")
-    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median), {result.wall_s:.2f} s wall, {speed}")
+    first, last = result.tenth_ms()
+    tenths = (f", first/last 10% {first:.1f}/{last:.1f} ms/scan"
+              if first == first and last == last else "")
+    typer.echo(f"{result.ms_per_scan:.1f} ms/scan (median){tenths}, {result.wall_s:.2f} s "
+               f"wall, {speed}")
     typer.echo(f"wrote {', '.join(Path(p).name for p in files.values())} to {out}")
     write_json(json_out, report)
+
+
+def _global_line(scores: TrajectoryScores, odometry: TrajectoryScores | None) -> str:
+    """ATE, long-range RPE and loop relations in one line."""
+    parts = [f"ATE {scores.ate.rms_m:.4f} m aligned"
+             + (f" (odometry alone {odometry.ate.rms_m:.3f} m)" if odometry else "")]
+    far = [f"{d} scans {r.trans_mean_m:.4f} m" for d, r in scores.rpe.items() if d > 1]
+    if far:
+        parts.append("RPE over " + ", ".join(far))
+    loops = scores.loops
+    parts.append(f"loop relations {loops.trans_mean_m:.4f} m over {loops.pairs} pairs"
+                 if loops else "no loop relations (the reference never comes back)")
+    return "global: " + ", ".join(parts)
