@@ -59,15 +59,18 @@ def test_a_mission_succeeds_and_publishes_its_state() -> None:
 def test_a_navigation_failure_ends_the_mission_failed_with_the_navigators_reason() -> None:
     stack = tb3_stack()
     ctx = MissionContext(stack.runtime)
-    # (2.5, 1.1) is inside the 0.4 m box in the middle of the arena
+    # (4.6, 2.0) is outside the 4 x 4 m arena.  (A goal inside the 0.4 m box was used
+    # before; with NavFn's 0.5 m `tolerance` Nav2 plans to the nearest free point and may
+    # reach it -- SUCCEEDED, as Nav2 does -- so it is not a sure failure.)
     root = Sequence("bad", memory=True, children=[
-        NavigateToPose(ctx, Pose2D(2.5, 1.1, 0.0), name="IntoTheBox")])
+        NavigateToPose(ctx, Pose2D(4.6, 2.0, 0.0), name="OutsideTheArena")])
     result = MissionRunner(stack.runtime, Mission("bad", root, ctx)).run(timeout=400.0)
     assert result.status is MissionStatus.FAILED
     nav = stack.runtime.bus.action_servers["/navigate_to_pose"].goals[-1].result
     assert nav is not None and nav.error_msg
-    assert result.reason == f"IntoTheBox: FAILED: {nav.error_msg}"
-    assert nav.error_msg.startswith(("could not reach the goal", "no path to the goal"))
+    assert result.reason == f"OutsideTheArena: FAILED: {nav.error_msg}"
+    assert nav.error_msg.startswith("no path to the goal: planner says goal (4.60, 2.00) is "
+                                    "outside the costmap")
 
 
 def test_cancel_stops_the_robot_within_one_control_cycle() -> None:
