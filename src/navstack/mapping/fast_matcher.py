@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from navstack.mapping.scan_matcher import (
     offset_moments,
     smeared_grid,
+    sum_under,
     surface_covariance_matrix,
 )
 
@@ -203,19 +204,6 @@ def wide_match(grids: PrecomputedGrids, points: FloatArray, center: FloatArray,
 
 
 @numba.njit(cache=True)
-def _sum_level(level: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np.int32],
-               dr: int, dc: int) -> float:
-    h, w = level.shape
-    total = 0
-    for n in range(rows.size):
-        r = rows[n] + dr
-        c = cols[n] + dc
-        if 0 <= r < h and 0 <= c < w:
-            total += level[r, c]
-    return float(total)
-
-
-@numba.njit(cache=True)
 def _excluded(ex: NDArray[np.float64], offset: float, dr: int, dc: int) -> bool:
     dx = dc - ex[0]
     dy = dr - ex[1]
@@ -242,7 +230,7 @@ def _search(levels: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np
     for a in range(n_a):
         for i in range(n_r):
             for j in range(n_c):
-                s = _sum_level(levels[depth], rows[a], cols[a], -half_r + i * span,
+                s = sum_under(levels[depth], rows[a], cols[a], -half_r + i * span,
                                -half_c + j * span)
                 scores[(a * n_r + i) * n_c + j] = s * penalty[a]
     order = np.argsort(-scores)
@@ -304,7 +292,7 @@ def _search(levels: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArray[np
                     continue
                 ch_r[m] = rr
                 ch_c[m] = cc
-                ch_s[m] = _sum_level(levels[lv - 1], rows[a], cols[a], rr, cc) * penalty[a]
+                ch_s[m] = sum_under(levels[lv - 1], rows[a], cols[a], rr, cc) * penalty[a]
                 m += 1
             # push worst first so that the best child is expanded next
             for _ in range(m):
@@ -344,7 +332,7 @@ def surface_covariance(grids: PrecomputedGrids, points: FloatArray, pose: FloatA
     drop_abs = drop * 255.0 * pts.shape[0]
     scores = _level_scores(grids.levels[0], rows[n], cols[n], half_cells)
     xy = offset_moments(scores, drop_abs, 1)
-    sums = np.array([_sum_level(grids.levels[0], rows[a], cols[a], 0, 0)
+    sums = np.array([sum_under(grids.levels[0], rows[a], cols[a], 0, 0)
                      for a in range(offsets.size)])
     cov = surface_covariance_matrix(xy, res, sums, offsets, drop_abs)
     return cov, float(scores[half_cells, half_cells]) / (255.0 * pts.shape[0])
@@ -358,5 +346,5 @@ def _level_scores(level: NDArray[np.uint8], rows: NDArray[np.int32], cols: NDArr
     scores = np.empty((size, size))
     for i in range(size):
         for j in range(size):
-            scores[i, j] = _sum_level(level, rows, cols, i - half, j - half)
+            scores[i, j] = sum_under(level, rows, cols, i - half, j - half)
     return scores

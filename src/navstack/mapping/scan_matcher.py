@@ -183,8 +183,12 @@ class LikelihoodGrid:
 
 # --- search -----------------------------------------------------------------------------
 @numba.njit(cache=True)
-def _sum_under(grid: NDArray[np.float32], rows: NDArray[np.int64], cols: NDArray[np.int64],
-               drow: int, dcol: int) -> float:
+def sum_under(grid: NDArray[np.float32] | NDArray[np.uint8],
+              rows: NDArray[np.int64] | NDArray[np.int32],
+              cols: NDArray[np.int64] | NDArray[np.int32], drow: int, dcol: int) -> float:
+    """Sum of ``grid`` under the cells (``rows + drow``, ``cols + dcol``) inside it (the
+    correlative score of one shift; numba compiles it per grid type -- the likelihood
+    grid's float32 here, the fast matcher's uint8 levels)."""
     h, w = grid.shape
     total = 0.0
     for n in range(rows.size):
@@ -216,7 +220,7 @@ def _bnb_search(fine: NDArray[np.float32], bound: NDArray[np.float32],
     for a in range(n_angles):
         for i in range(nb):
             for j in range(nb):
-                s = _sum_under(bound, rows[a], cols[a], starts[i], starts[j])
+                s = sum_under(bound, rows[a], cols[a], starts[i], starts[j])
                 bounds[(a * nb + i) * nb + j] = s * penalty_angle[a]
     order = np.argsort(-bounds)
     best = -1.0
@@ -237,7 +241,7 @@ def _bnb_search(fine: NDArray[np.float32], bound: NDArray[np.float32],
                         and abs(dr - exclude_row) <= exclude_cells
                         and abs(dc - exclude_col) <= exclude_cells):
                     continue
-                s = _sum_under(fine, rows[a], cols[a], dr, dc) * penalty_angle[a]
+                s = sum_under(fine, rows[a], cols[a], dr, dc) * penalty_angle[a]
                 d2 = (dr * dr + dc * dc) * resolution * resolution
                 pen = 1.0 - 0.2 * d2 / dist_var_penalty
                 if pen < min_dist_penalty:
@@ -446,7 +450,7 @@ def _sums_at_rows(fine: NDArray[np.float32], rows: NDArray[np.int64],
                   cols: NDArray[np.int64]) -> NDArray[np.float64]:
     out = np.empty(rows.shape[0])
     for a in range(rows.shape[0]):
-        out[a] = _sum_under(fine, rows[a], cols[a], 0, 0)
+        out[a] = sum_under(fine, rows[a], cols[a], 0, 0)
     return out
 
 
@@ -461,7 +465,7 @@ def _translation_moments(fine: NDArray[np.float32], rows: NDArray[np.int64],
     scores = np.empty((size, size))
     for i in range(size):
         for j in range(size):
-            scores[i, j] = _sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
+            scores[i, j] = sum_under(fine, rows, cols, (i - n) * stride, (j - n) * stride)
     return offset_moments(scores, drop, stride)
 
 
