@@ -236,6 +236,18 @@ def _chord_max_cost(x0: float, y0: float, x1: float, y1: float, data: NDArray[np
 
 
 @nb.njit(cache=True)
+def _corner_cost(p: NDArray[np.float64], x: float, y: float, q: NDArray[np.float64],
+                 max_length: float, data: NDArray[np.uint8], ox: float, oy: float,
+                 res: float, unknown_cost: int) -> int:
+    """Highest cost along ``p -> (x, y) -> q`` (two straight segments through a new
+    corner), or -1 when that route is longer than ``max_length``."""
+    if math.hypot(x - p[0], y - p[1]) + math.hypot(q[0] - x, q[1] - y) > max_length:
+        return -1
+    return max(_chord_max_cost(p[0], p[1], x, y, data, ox, oy, res, unknown_cost),
+               _chord_max_cost(x, y, q[0], q[1], data, ox, oy, res, unknown_cost))
+
+
+@nb.njit(cache=True)
 def _straighten(xy: NDArray[np.float64], cost: NDArray[np.int64], data: NDArray[np.uint8],
                 ox: float, oy: float, res: float, unknown_cost: int,
                 max_deviation: float) -> NDArray[np.int64]:
@@ -381,29 +393,19 @@ def _drop_wobbles(xy: NDArray[np.float64], data: NDArray[np.uint8], ox: float, o
             de = math.hypot(pts[e, 0] - pts[d, 0], pts[e, 1] - pts[d, 1])
             lim = _cost_limit(cost_b, cost_e, max(cbc, ccd, cde))
             if s > 0.0 and u < de and lim >= 0:
-                new = math.hypot(x - pts[b, 0], y - pts[b, 1]) + math.hypot(pts[e, 0] - x,
-                                                                            pts[e, 1] - y)
-                if new <= old + de:
-                    worst = max(_chord_max_cost(pts[b, 0], pts[b, 1], x, y, data, ox, oy, res,
-                                                unknown_cost),
-                                _chord_max_cost(x, y, pts[e, 0], pts[e, 1], data, ox, oy, res,
-                                                unknown_cost))
-                    if worst <= lim and worst < best:
-                        best, which, bx, by = worst, 2, x, y
+                worst = _corner_cost(pts[b], x, y, pts[e], old + de, data, ox, oy, res,
+                                     unknown_cost)
+                if 0 <= worst <= lim and worst < best:
+                    best, which, bx, by = worst, 2, x, y
             # (3) a -> b carried on to where it meets c -> d: b and c become one corner
             x, y, s, u = _meet(pts[a], pts[b], pts[c], pts[d])
             ab = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
             lim = _cost_limit(cost_a, cost_d, max(cab, cbc, ccd))
             if s > -ab and u < 0.0 and lim >= 0:
-                new = math.hypot(x - pts[a, 0], y - pts[a, 1]) + math.hypot(pts[d, 0] - x,
-                                                                            pts[d, 1] - y)
-                if new <= old + ab:
-                    worst = max(_chord_max_cost(pts[a, 0], pts[a, 1], x, y, data, ox, oy, res,
-                                                unknown_cost),
-                                _chord_max_cost(x, y, pts[d, 0], pts[d, 1], data, ox, oy, res,
-                                                unknown_cost))
-                    if worst <= lim and worst < best:
-                        best, which, bx, by = worst, 3, x, y
+                worst = _corner_cost(pts[a], x, y, pts[d], old + ab, data, ox, oy, res,
+                                     unknown_cost)
+                if 0 <= worst <= lim and worst < best:
+                    best, which, bx, by = worst, 3, x, y
             if which == 0:
                 continue
             moved = d if which == 2 else b
