@@ -100,12 +100,9 @@ def test_descent_reaches_the_source_in_half_cell_steps() -> None:
     assert np.allclose(steps, 0.5)
 
 
-def test_straightened_plan_past_a_person_into_a_door_has_one_s() -> None:
-    """The office corridor with a person marked on it, from the corridor to room E: NavFn's
-    smoothed plan swerves around the person, swings back to the corridor's centre and
-    turns into the door (4 curvature sign changes in 14.7 m, 2.7 per 10 m); straightened
-    (``straighten_deviation`` 0.15 m) it runs from the pinch point to the door (1), no
-    closer to the person and no costlier than the smoothed plan + 15 %."""
+def _office_costmap_with_person(px: float, py: float, radius: float) -> Costmap2D:
+    """The office's map with a person (a disc of ``radius`` at ``px, py``), inflated as
+    the packaged costmap does (inscribed 0.27 m, cost_scaling_factor 2.5, 0.7 m)."""
     from scipy import ndimage
 
     from navstack.sim.worlds import load_world
@@ -113,14 +110,23 @@ def test_straightened_plan_past_a_person_into_a_door_has_one_s() -> None:
     w = load_world("office")
     res = w.resolution
     yy, xx = np.mgrid[0:w.occupied.shape[0], 0:w.occupied.shape[1]]
-    person = np.hypot(w.origin_x + (xx + 0.5) * res - 12.6,
-                      w.origin_y + (yy + 0.5) * res - 7.9) <= 0.3
+    person = np.hypot(w.origin_x + (xx + 0.5) * res - px,
+                      w.origin_y + (yy + 0.5) * res - py) <= radius
     occ = w.occupied | person
     d = ndimage.distance_transform_edt(~occ) * res
     cost = np.where(d <= 0.27, 253, np.where(d <= 0.7, np.floor(252 * np.exp(-2.5 * (d - 0.27))),
                                              0))
     cost[occ] = 254
-    cm = Costmap2D.from_array(cost.astype(np.uint8), res, w.origin_x, w.origin_y)
+    return Costmap2D.from_array(cost.astype(np.uint8), res, w.origin_x, w.origin_y)
+
+
+def test_straightened_plan_past_a_person_into_a_door_has_one_s() -> None:
+    """The office corridor with a person marked on it, from the corridor to room E: NavFn's
+    smoothed plan swerves around the person, swings back to the corridor's centre and
+    turns into the door (4 curvature sign changes in 14.7 m, 2.7 per 10 m); straightened
+    (``straighten_deviation`` 0.15 m) it runs from the pinch point to the door (1), no
+    closer to the person and no costlier than the smoothed plan + 15 %."""
+    cm = _office_costmap_with_person(12.6, 7.9, 0.3)
     start, goal = Pose2D(14.78, 7.45, math.pi), Pose2D(1.5, 10.0, math.pi)
     smoothed = NavfnPlanner().plan(start, goal, cm).as_array()[:, :2]
     straight = NavfnPlanner(NavfnParams(straighten_deviation=0.15)).plan(start, goal, cm)
@@ -146,21 +152,7 @@ def test_straightened_plan_out_of_a_door_past_a_person_turns_one_way() -> None:
     nearer its jamb than the plan does; straightened, the door's line is carried on past
     the person to where the plan turns west (one corner instead of the swing and the
     turn): 1 sign change, no costlier and no longer than the smoothed plan."""
-    from scipy import ndimage
-
-    from navstack.sim.worlds import load_world
-
-    w = load_world("office")
-    res = w.resolution
-    yy, xx = np.mgrid[0:w.occupied.shape[0], 0:w.occupied.shape[1]]
-    person = np.hypot(w.origin_x + (xx + 0.5) * res - 9.45,
-                      w.origin_y + (yy + 0.5) * res - 8.0) <= 0.12
-    occ = w.occupied | person
-    d = ndimage.distance_transform_edt(~occ) * res
-    cost = np.where(d <= 0.27, 253, np.where(d <= 0.7, np.floor(252 * np.exp(-2.5 * (d - 0.27))),
-                                             0))
-    cost[occ] = 254
-    cm = Costmap2D.from_array(cost.astype(np.uint8), res, w.origin_x, w.origin_y)
+    cm = _office_costmap_with_person(9.45, 8.0, 0.12)
     start, goal = Pose2D(9.6, 9.11, -1.07), Pose2D(2.5, 4.0, 0.0)
     smoothed = NavfnPlanner().plan(start, goal, cm).as_array()[:, :2]
     xy = NavfnPlanner(NavfnParams(straighten_deviation=0.15)).plan(start, goal, cm)
