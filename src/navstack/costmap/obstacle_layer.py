@@ -253,7 +253,7 @@ class ObstacleLayer(CostmapLayer):
             self._map_distance.update(grid)
         xy_map = xy if static.map_in_costmap is None else \
             static.map_in_costmap.inverse().transform_points(xy)
-        far = self._map_distance.at(xy_map) > self.params.unmapped_distance
+        far = self._map_distance.beyond(xy_map, self.params.unmapped_distance)
         if not far.any():
             return
         cm = self.costmap

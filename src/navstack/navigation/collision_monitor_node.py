@@ -141,7 +141,7 @@ class CollisionMonitorNode(Node):
         """``pts`` (in ``frame``) without those the map explains (module docstring)."""
         src = self.params.source_params[name]
         field = self._maps[src.map_topic]
-        if field.distance is None:
+        if field.grid is None:
             return pts
         try:
             pose = self.tf.lookup_pose2d(src.map_frame_id, frame, stamp)
@@ -150,7 +150,7 @@ class CollisionMonitorNode(Node):
                 pose = self.tf.lookup_pose2d(src.map_frame_id, frame)
             except TransformError:
                 return pts
-        return pts[field.at(se2_apply(pose.as_array(), pts)) > src.exclude_map_obstacles]
+        return pts[field.beyond(se2_apply(pose.as_array(), pts), src.exclude_map_obstacles)]
 
     def _points(self) -> tuple[dict[str, FloatArray], str]:
         """Fresh points per source in the base frame, or the name of a stale source."""
