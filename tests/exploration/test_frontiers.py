@@ -191,3 +191,22 @@ def test_a_frontier_only_tight_spots_reach_keeps_its_near_cells() -> None:
                         goal_reach=0.3)
     (f,) = fs.reachable
     assert f.goal is not None and f.goal[1] >= 0.8  # no roomy cell within 0.3 m: the pocket
+
+
+def test_line_of_sight_stops_at_the_first_obstacle_sample() -> None:
+    from navstack.exploration.frontiers import _sees
+
+    rng = np.random.default_rng(3)
+    occupied = rng.random((40, 50)) < 0.05
+    v = GridView(np.zeros_like(occupied), ~occupied, ~occupied, RES)
+    rows, cols = rng.integers(0, 40, 300), rng.integers(0, 50, 300)
+    trows = np.clip(rows + rng.integers(-12, 13, 300), 0, 39)
+    tcols = np.clip(cols + rng.integers(-12, 13, 300), 0, 49)
+    steps = int(max(np.abs(trows - rows).max(), np.abs(tcols - cols).max())) * 4 + 1
+    expected = []
+    for r, c, tr, tc in zip(rows, cols, trows, tcols, strict=True):
+        samples = [(math.floor(r + 0.5 + t * (tr - r)), math.floor(c + 0.5 + t * (tc - c)))
+                   for t in np.linspace(0.0, 1.0, steps + 1)]
+        expected.append(not any(occupied[a, b] for a, b in samples))
+    seen = _sees(v, rows, cols, trows, tcols)
+    assert seen.tolist() == expected and 0 < seen.sum() < seen.size

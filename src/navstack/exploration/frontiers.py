@@ -20,7 +20,7 @@ its ``goal`` the approach cell nearest its centroid (explore_lite's centroid goa
 to where the robot can stand).  Blacklisted cells (:class:`~.blacklist.Blacklist`) are
 removed before grouping, as explore_lite skips blacklisted goals.
 
-Everything is vectorised numpy/scipy; the wavefront is numba.
+Everything is vectorised numpy/scipy; the wavefront and the line-of-sight test are numba.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -241,10 +242,28 @@ def _roomy(view: GridView, box: tuple[int, int, int, int], clearance: float) -> 
 def _sees(view: GridView, rows: IntArray, cols: IntArray, trows: IntArray,
           tcols: IntArray) -> BoolArray:
     """Whether the straight line from each cell to its target cell crosses no obstacle
-    cell (sampled at a quarter cell)."""
+    cell (sampled at a quarter cell, the same samples for every line: as many as the
+    longest line needs)."""
     occupied = ~view.unknown & ~view.free
     steps = int(max(np.abs(trows - rows).max(), np.abs(tcols - cols).max())) * 4 + 1
-    t = np.linspace(0.0, 1.0, steps + 1)[:, None]
-    r = np.floor(rows + 0.5 + t * (trows - rows)).astype(np.int64)
-    c = np.floor(cols + 0.5 + t * (tcols - cols)).astype(np.int64)
-    return ~occupied[r, c].any(axis=0)
+    t = np.linspace(0.0, 1.0, steps + 1)
+    return _sees_kernel(occupied, t, rows.astype(np.int64), cols.astype(np.int64),
+                        trows.astype(np.int64), tcols.astype(np.int64))
+
+
+@nb.njit(cache=True)
+def _sees_kernel(occupied: BoolArray, t: FloatArray, rows: IntArray, cols: IntArray,
+                 trows: IntArray, tcols: IntArray) -> BoolArray:
+    """:func:`_sees` per line, stopping at its first obstacle sample (the vectorised form
+    sampled every line in full: a fifth of a warehouse frontier search)."""
+    out = np.ones(rows.size, dtype=np.bool_)
+    for i in range(rows.size):
+        r0 = rows[i] + 0.5
+        c0 = cols[i] + 0.5
+        dr = float(trows[i] - rows[i])
+        dc = float(tcols[i] - cols[i])
+        for k in range(t.size):
+            if occupied[math.floor(r0 + t[k] * dr), math.floor(c0 + t[k] * dc)]:
+                out[i] = False
+                break
+    return out
