@@ -210,3 +210,25 @@ def test_line_of_sight_stops_at_the_first_obstacle_sample() -> None:
         expected.append(not any(occupied[a, b] for a, b in samples))
     seen = _sees(v, rows, cols, trows, tcols)
     assert seen.tolist() == expected and 0 < seen.sum() < seen.size
+
+
+# 0.46097722286464443 is where the distances of 85 squared cells -- (9, 2) and (7, 6) --
+# round to two floats: the transform's answer there depends on the cell it picks
+_AMBIGUOUS = 0.46097722286464443 - 0.025
+
+
+@pytest.mark.parametrize("clearance", [0.1, 0.2, 0.2978, 0.35, _AMBIGUOUS])
+def test_roomy_cells_looked_up_locally_match_the_distance_transform(clearance: float) -> None:
+    from navstack.exploration.frontiers import _clearance_offsets, _roomy, _roomy_at
+
+    rng = np.random.default_rng(5)
+    shape = (70, 90)
+    unknown = rng.random(shape) < 0.3
+    occupied = ~unknown & (rng.random(shape) < 0.03)
+    v = GridView(unknown, ~unknown & ~occupied, ~unknown & ~occupied, 0.05)
+    rows, cols = rng.integers(0, 70, 3000), rng.integers(0, 90, 3000)
+    expected = _roomy(v, (0, 70, 0, 90), clearance)[rows, cols]
+    assert 0 < expected.sum() < expected.size
+    np.testing.assert_array_equal(_roomy_at(v, rows, cols, clearance), expected)
+    # that clearance is left to the transform
+    assert (_clearance_offsets(0.05, clearance + 0.025) is None) == (clearance == _AMBIGUOUS)
