@@ -232,3 +232,21 @@ def test_roomy_cells_looked_up_locally_match_the_distance_transform(clearance: f
     np.testing.assert_array_equal(_roomy_at(v, rows, cols, clearance), expected)
     # that clearance is left to the transform
     assert (_clearance_offsets(0.05, clearance + 0.025) is None) == (clearance == _AMBIGUOUS)
+
+
+@pytest.mark.parametrize(("density", "radius"), [(0.005, 6), (0.03, 3), (0.2, 1)])
+def test_nearest_within_picks_the_cell_the_distance_transform_picks(density: float,
+                                                                    radius: int) -> None:
+    from navstack.exploration.frontiers import nearest_within
+
+    rng = np.random.default_rng(int(density * 1000))
+    cells = rng.random((45, 60)) < density
+    dist, (ir, ic) = ndimage.distance_transform_edt(~cells, return_indices=True)
+    rows, cols = np.nonzero(cells)
+    sq, jr, jc = nearest_within(rows, cols, cells.shape, radius)
+    within = dist <= radius
+    assert within.any() and (~within).any()
+    np.testing.assert_array_equal(sq <= radius * radius, within)
+    np.testing.assert_array_equal(np.sqrt(sq[within]), dist[within])
+    np.testing.assert_array_equal(jr[within], ir[within])  # same cell on every tie
+    np.testing.assert_array_equal(jc[within], ic[within])

@@ -149,19 +149,19 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
     roomy_goals = goal_clearance > 0.0
     far_cells = max(reach_cells, math.ceil(goal_reach / res - 1e-9)) if roomy_goals \
         else reach_cells
-    # the distance transform only matters within far_cells of a kept frontier cell: run
-    # it on their bounding box grown by that much (exact; on a warehouse-size map the
-    # whole-grid transform was a third of the exploration's planning time)
+    # only cells within far_cells of a kept frontier cell matter: find each one's nearest
+    # frontier cell by painting the far_cells disc around every kept cell on their
+    # bounding box grown by that much (on a warehouse-size map the box's distance
+    # transform was a sixth of an exploration's CPU time)
     kr, kc = np.nonzero(kept_labels)
     r0, r1 = max(0, int(kr.min()) - far_cells - 1), int(kr.max()) + far_cells + 2
     c0, c1 = max(0, int(kc.min()) - far_cells - 1), int(kc.max()) + far_cells + 2
     box = (slice(r0, r1), slice(c0, c1))
-    nearest_dist, (ir, ic) = ndimage.distance_transform_edt(kept_labels[box] == 0,
-                                                            return_indices=True)
-    reached = np.isfinite(dist[box]) & view.traversable[box] & (nearest_dist <= far_cells)
+    nearest_sq, ir, ic = nearest_within(kr - r0, kc - c0, kept_labels[box].shape, far_cells)
+    reached = np.isfinite(dist[box]) & view.traversable[box] & (nearest_sq <= far_cells ** 2)
     br, bc = np.nonzero(reached)
     alabel = kept_labels[box][ir[br, bc], ic[br, bc]]
-    near = nearest_dist[br, bc] <= reach_cells
+    near = nearest_sq[br, bc] <= reach_cells ** 2
     roomy = np.zeros(br.size, dtype=bool)
     if roomy_goals and br.size:
         roomy = _roomy_at(view, br + r0, bc + c0, goal_clearance)
@@ -206,6 +206,48 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
             (float(approach[k_near, 0]), float(approach[k_near, 1])), rr, cc))
     reachable.sort(key=lambda f: f.distance)
     return FrontierSet(reachable, unreachable, dist, start, mask, too_small)
+
+
+def nearest_within(rows: IntArray, cols: IntArray, shape: tuple[int, int], radius: int
+                   ) -> tuple[IntArray, IntArray, IntArray]:
+    """Per cell of an ``shape`` grid, the squared distance [cells^2] to the nearest of the
+    cells ``rows``, ``cols`` and that cell's row and column, for the cells within
+    ``radius`` cells of one (elsewhere the squared distance is ``> radius**2`` and the
+    row and column are meaningless).
+
+    The nearest cell is the one :func:`scipy.ndimage.distance_transform_edt` returns
+    with ``return_indices``: among equally near cells, the smallest column, then the
+    smallest row (its lower-envelope scans keep the earlier candidate on a tie; tested
+    against it).  Cost: ``len(rows)`` discs instead of the whole grid."""
+    dr, dc = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    sq = dr * dr + dc * dc
+    inside = sq <= radius * radius
+    offsets = np.column_stack((dr[inside], dc[inside], sq[inside])).astype(np.int64)
+    return _nearest_kernel(np.asarray(rows, np.int64), np.asarray(cols, np.int64),
+                           int(shape[0]), int(shape[1]), offsets, radius * radius + 1)
+
+
+@nb.njit(cache=True)
+def _nearest_kernel(rows: IntArray, cols: IntArray, h: int, w: int, offsets: IntArray,
+                    beyond: int) -> tuple[IntArray, IntArray, IntArray]:
+    best = np.full((h, w), beyond, dtype=np.int64)
+    ir = np.empty((h, w), dtype=np.int64)  # read only where best was set
+    ic = np.empty((h, w), dtype=np.int64)
+    for i in range(rows.size):
+        fr = rows[i]
+        fc = cols[i]
+        for k in range(offsets.shape[0]):
+            r = fr + offsets[k, 0]
+            c = fc + offsets[k, 1]
+            if r < 0 or c < 0 or r >= h or c >= w:
+                continue
+            n = offsets[k, 2]
+            b = best[r, c]
+            if n < b or (n == b and (fc < ic[r, c] or (fc == ic[r, c] and fr < ir[r, c]))):
+                best[r, c] = n
+                ir[r, c] = fr
+                ic[r, c] = fc
+    return best, ir, ic
 
 
 def _approach(near: BoolArray, roomy: BoolArray) -> BoolArray:
