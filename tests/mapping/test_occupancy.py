@@ -337,3 +337,31 @@ def test_clear_only_scans_erase_a_person_but_keep_a_wall_face_on_a_cell_boundary
             if before[cell] == 100:
                 assert after[cell] == 100, (x, y)
     assert before[face] == 100 or before[g.world_to_cell(0.5, 1.01)] == 100
+
+
+@pytest.mark.parametrize(("occupied", "free"), [(0.65, 0.196), (0.6, 0.3), (1.0, 0.0)])
+def test_trinary_grid_compares_log_odds_exactly_as_probabilities(occupied: float,
+                                                                  free: float) -> None:
+    from navstack.mapping.occupancy import _probability, _trinary_bounds
+
+    g = LogOddsGrid(0.05, bounds=(0.0, 0.0, 10.0, 10.0))
+    rng = np.random.default_rng(2)
+    shape = g._l.shape
+    lv = (rng.standard_normal(shape) * 2.0).astype(np.float32)
+    bounds = _trinary_bounds(occupied, free)
+    assert (bounds is None) == (occupied == 1.0)
+    if bounds is not None:  # plant values at and next to each bound
+        for k, b in enumerate(bounds):
+            near = [np.nextafter(b, np.float32(-9)), b, np.nextafter(b, np.float32(9))]
+            lv.ravel()[150 * k:150 * (k + 1)] = np.tile(np.array(near, np.float32), 50)
+    g._l[:] = lv
+    g._mark[:] = (rng.random(shape) < 0.9).astype(np.int32)
+    grid = g.to_occupancy_grid(occupied_thresh=occupied, free_thresh=free)
+    p = _probability(lv)
+    expected = np.full(shape, -1, np.int8)
+    obs = g._mark > 0
+    expected[obs & (p > occupied)] = 100
+    expected[obs & (p < free)] = 0
+    np.testing.assert_array_equal(grid.data, expected)
+    assert (grid.data == -1).any() and (grid.data == 0).any() == (free > 0.0)
+    assert (grid.data == 100).any() == (occupied < 1.0)

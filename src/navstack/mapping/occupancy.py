@@ -507,14 +507,20 @@ class LogOddsGrid:
         if mode not in ("trinary", "probability"):
             raise MappingError(f"unknown grid mode {mode!r}; use 'trinary' or 'probability'")
         rs, cs = self._crop_slices(crop)
-        p = 1.0 / (1.0 + np.exp(-self._l[rs, cs].astype(np.float64)))
         obs = self._mark[rs, cs] > 0
-        data = np.full(p.shape, -1, dtype=np.int8)
-        if mode == "trinary":
-            data[obs & (p > occupied_thresh)] = 100
-            data[obs & (p < free_thresh)] = 0
+        data = np.full(obs.shape, -1, dtype=np.int8)
+        bounds = _trinary_bounds(occupied_thresh, free_thresh) if mode == "trinary" else None
+        if bounds is not None:  # the same cells, compared in log-odds (no exp per cell)
+            lv = self._l[rs, cs]
+            data[obs & (lv >= bounds[0])] = 100
+            data[obs & (lv <= bounds[1])] = 0
         else:
-            data[obs] = np.rint(100.0 * p[obs]).astype(np.int8)
+            p = 1.0 / (1.0 + np.exp(-self._l[rs, cs].astype(np.float64)))
+            if mode == "trinary":
+                data[obs & (p > occupied_thresh)] = 100
+                data[obs & (p < free_thresh)] = 0
+            else:
+                data[obs] = np.rint(100.0 * p[obs]).astype(np.int8)
         ox = self._ax + (self._off_col + (cs.start or 0)) * self._res
         oy = self._ay + (self._off_row + (rs.start or 0)) * self._res
         height, width = obs.shape
@@ -553,3 +559,63 @@ class LogOddsGrid:
             raise MappingError(f"{out}: cannot write the map picture ({exc}); check the folder "
                                "and use a .png/.pgm name") from None
         return out
+
+
+_BOUNDS: dict[tuple[float, float], tuple[np.float32, np.float32] | None] = {}
+
+
+def _probability(lv: NDArray[np.float32]) -> NDArray[np.float64]:
+    """Occupancy probability of log-odds ``lv``, as :meth:`LogOddsGrid.to_occupancy_grid`
+    computes it."""
+    return 1.0 / (1.0 + np.exp(-lv.astype(np.float64)))
+
+
+def _float32_threshold(pred_above: bool, thresh: float) -> np.float32 | None:
+    """The smallest float32 log-odds whose :func:`_probability` is ``> thresh``
+    (``pred_above``), or the largest whose probability is ``< thresh``; ``None`` unless
+    the float32 values around it confirm a single crossing."""
+    lo, hi = np.float32(-80.0), np.float32(80.0)
+    lo_i, hi_i = int(lo.view(np.int32)), int(hi.view(np.int32))
+
+    def key(i: int) -> int:  # float32 bit pattern -> monotone integer
+        return i if i >= 0 else -(i & 0x7FFFFFFF)
+
+    def value(k: int) -> np.float32:
+        bits = k if k >= 0 else (-k) | -0x80000000
+        return np.array([bits], dtype=np.int32).view(np.float32)[0]
+
+    a, b = key(lo_i), key(hi_i)
+
+    def test(k: int) -> bool:
+        p = float(_probability(np.array([value(k)], dtype=np.float32))[0])
+        return p > thresh if pred_above else not p < thresh
+
+    if test(a) or not test(b):
+        return None
+    while b - a > 1:  # test(a) False, test(b) True
+        m = (a + b) // 2
+        if test(m):
+            b = m
+        else:
+            a = m
+    ks = np.arange(b - 2048, b + 2048)
+    bits = np.where(ks >= 0, ks, (-ks) | -0x80000000).astype(np.int32)
+    p = _probability(bits.view(np.float32))
+    hit = p > thresh if pred_above else ~(p < thresh)
+    if not (hit == (ks >= b)).all():
+        return None
+    return value(b) if pred_above else value(a)
+
+
+def _trinary_bounds(occupied_thresh: float, free_thresh: float
+                    ) -> tuple[np.float32, np.float32] | None:
+    """``(L, U)``: a float32 log-odds ``l`` has probability ``> occupied_thresh`` iff
+    ``l >= L`` and ``< free_thresh`` iff ``l <= U`` (the probability is monotone in
+    ``l``; found once per threshold pair by bisection over float32 values and checked
+    on the 4096 values around each bound).  ``None``: compare probabilities instead."""
+    k = (occupied_thresh, free_thresh)
+    if k not in _BOUNDS:
+        lo = _float32_threshold(True, occupied_thresh)
+        hi = _float32_threshold(False, free_thresh)
+        _BOUNDS[k] = None if lo is None or hi is None else (lo, hi)
+    return _BOUNDS[k]
