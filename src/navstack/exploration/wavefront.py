@@ -106,7 +106,10 @@ class Wavefront:
         if cell is None:
             return np.full(traversable.shape, np.inf), None, math.inf
         offset = math.hypot(cell[0] - start[0], cell[1] - start[1]) * resolution
-        return self.distances(traversable, cell, resolution) + offset, cell, offset
+        dist = self.distances(traversable, cell, resolution)
+        if offset != 0.0:  # (adding 0.0 changes no value: skip the pass over the grid)
+            dist += offset
+        return dist, cell, offset
 
 
 def min_over_neighbours(values: FloatArray) -> FloatArray:
