@@ -175,7 +175,7 @@ def find_frontiers(view: GridView, robot_xy: tuple[float, float], *,
     ar, ac, alabel = ar[order], ac[order], alabel[order]
     near, roomy = near[order], roomy[order]
     bounds = np.searchsorted(alabel, np.arange(n + 2))
-    fr, fc = np.nonzero(kept_labels)
+    fr, fc = kr, kc  # the kept cells, row-major as np.nonzero gives them
     flab = kept_labels[fr, fc]
     forder = np.argsort(flab, kind="stable")
     fr, fc, flab = fr[forder], fc[forder], flab[forder]
