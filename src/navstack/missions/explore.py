@@ -233,7 +233,7 @@ class Explore(MissionBehaviour):
 
         def points(rows: Any, cols: Any) -> tuple[Point, ...]:
             pts = view.centres(rows, cols)
-            return tuple(Point(float(x), float(y), 0.0) for x, y in pts)
+            return tuple(Point(x, y, 0.0) for x, y in pts.tolist())
 
         ident = 0
         for f, color in ([(f, _BLUE) for f in fs.reachable]
