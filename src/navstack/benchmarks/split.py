@@ -259,6 +259,14 @@ def run(quick: bool, data_dir: Path | None, progress: Progress | None = None) ->
     stage(f"in-process reference and split, wall clock x{rate:g} (latency)")
     lat, got = measure_latency(stack, wp, rate, res)
     m.update(lat)
+    if "added_scan_to_cmd_p99_ms" in lat:
+        res.notes.append("scan -> /cmd_vel [ms] p50 / p95 / p99: " + "; ".join(
+            f"{label} " + " / ".join(f"{lat[f'{key}_p{q}_ms']:.2f}" for q in QUANTILES)
+            for label, key in (("in process", "in_process_scan_to_cmd"),
+                               ("split", "split_scan_to_cmd"),
+                               ("added", "added_scan_to_cmd")))
+            + f" (budget: added p99 <= {ADDED_LATENCY_BUDGET_MS:g}); 1-min load "
+            f"{lat['latency_load_1min_start']:.1f} -> {lat['latency_load_1min_end']:.1f}")
     if got is not None:
         robot, base = got
         fig = score(robot, base, None, 0.0)

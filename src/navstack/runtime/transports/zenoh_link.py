@@ -22,7 +22,7 @@ with a liveliness token in rmw_zenoh's layout, and then:
 Zenoh calls back on its own threads; everything that touches the bus is handed to the
 scheduler with :meth:`Scheduler.post`, so nodes never see another thread.  The other
 way, on a wall clock the loop only encodes (CDR: a few us) and queues what it sends;
-the link's sender thread does the Zenoh ``put`` (:class:`_Outbox`), which on loopback
+the link's sender thread does the Zenoh ``put`` (:class:`.outbox.Outbox`), which on loopback
 TCP took 75 us at the median and 0.5-5 ms at p99 per call -- on a robot that time
 was spent inside the simulator's scan tick, ahead of the costmap and controller.  In
 lockstep the loop puts directly (its messages must stay ordered with its time
@@ -60,6 +60,7 @@ from navstack.runtime.transports.keys import (
     qos_string,
     topic_key,
 )
+from navstack.runtime.transports.outbox import Outbox
 from navstack.runtime.transports.payloads import shift_stamps
 
 if TYPE_CHECKING:
@@ -86,59 +87,6 @@ def attachment_bytes(sample: zenoh.Sample | zenoh.Query) -> bytes | None:
     """A sample's or query's attachment as bytes (``None`` without one)."""
     att = sample.attachment
     return None if att is None else att.to_bytes()
-
-
-class _Outbox:
-    """Zenoh puts handed off the loop thread: a FIFO run by one daemon thread, so the
-    order of this process's messages is kept while the loop goes on at once."""
-
-    def __init__(self, name: str) -> None:
-        self._queue: deque[Callable[[], Any]] = deque()
-        self._cond = threading.Condition()
-        self._closing = False
-        self.submitted = 0
-        self.sent = 0
-        self.put_s = 0.0  # time [s] the sender thread spent in the puts
-        self._thread = threading.Thread(target=self._run, name=f"navstack-send-{name}",
-                                        daemon=True)
-        self._thread.start()
-
-    def submit(self, put: Callable[[], Any]) -> None:
-        with self._cond:
-            self._queue.append(put)
-            self.submitted += 1
-            self._cond.notify_all()
-
-    def _run(self) -> None:
-        queue, cond = self._queue, self._cond
-        while True:
-            with cond:
-                cond.wait_for(lambda: bool(queue) or self._closing)
-                if not queue:
-                    return  # closing, everything sent
-                put = queue.popleft()
-            t0 = time.perf_counter()
-            try:
-                put()
-            except zenoh.ZError as exc:  # the session closing under us
-                _log.debug("put failed: %s", exc)
-            with cond:
-                self.put_s += time.perf_counter() - t0
-                self.sent += 1
-                cond.notify_all()
-
-    def flush(self, timeout: float = 1.0) -> bool:
-        """Wait until everything submitted so far has been put."""
-        with self._cond:
-            target = self.submitted
-            return self._cond.wait_for(lambda: self.sent >= target, timeout)
-
-    def close(self, timeout: float = 2.0) -> None:
-        """Send what is queued, then stop."""
-        with self._cond:
-            self._closing = True
-            self._cond.notify_all()
-        self._thread.join(timeout)
 
 
 @dataclass
@@ -197,7 +145,7 @@ class ZenohLink:
         self._fetchers: list[_LatchedFetcher] = []
         self._imports: set[str] = set()
         self._seq = 0
-        self._outbox = _Outbox(params.name)
+        self._outbox = Outbox(params.name)
         self._gid = params.name.encode()[:16].ljust(16, b"\0")
         self._entities: list[Any] = []
         self._closed = False
