@@ -153,11 +153,15 @@ class InformationGainUtility(ExplorationStrategy):
         who = np.concatenate(owner)
         gain = visible_unknown(view, r, c, p.sensor_range) * view.resolution ** 2
         dist = frontiers.distances[r, c]
-        utility = gain * np.exp(-p.distance_decay * dist)
+        pts = view.centres(r, c)
+        # the turn to head for it [rad], as metres the robot would have driven meanwhile
+        bearing = np.arctan2(pts[:, 1] - robot[1], pts[:, 0] - robot[0]) - robot[2]
+        turn = np.abs(np.remainder(bearing + math.pi, 2.0 * math.pi) - math.pi)
+        turn[np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1]) < 1e-9] = 0.0
+        utility = gain * np.exp(-p.distance_decay * (dist + p.turn_distance * turn))
         best: dict[int, int] = {}
         for k in np.argsort(-utility, kind="stable"):
             best.setdefault(int(who[k]), int(k))
-        pts = view.centres(r, c)
         out = [Target(frontiers.reachable[i], (float(pts[k, 0]), float(pts[k, 1])),
                       float(dist[k]), float(utility[k]), float(gain[k]))
                for i, k in best.items()]

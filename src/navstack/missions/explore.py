@@ -148,11 +148,15 @@ class Explore(MissionBehaviour):
         self.decision = decision
         if decision.cancelled:
             ctx.log(f"{self.name}: gave up the goal: {decision.cancelled}")
-            self._cancel_goal()
-            if decision.kind is not DecisionKind.DONE:
+            if decision.blacklisted or decision.kind is not DecisionKind.SEND:
+                self._cancel_goal()
+            if decision.blacklisted and decision.kind is not DecisionKind.DONE:
+                # stuck or no progress: get clear before the next goal
                 self._pending = decision if decision.kind is DecisionKind.SEND else None
                 self._begin_escape()
                 return Status.RUNNING
+            # its frontier was observed: the next goal preempts the running one in place
+            # (explore_lite's makePlan sends it without stopping the robot)
         if p.visualize and decision.frontiers is not None:
             self._publish_markers(decision, view)
         if decision.kind is DecisionKind.DONE:
