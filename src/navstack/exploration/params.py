@@ -90,6 +90,9 @@ class ExploreParams(Params):
     per radian the robot must turn to head for it -- the distance it would have driven
     in that time (TurtleBot3: RPP drives 0.26 m/s and turns in place at 1.0 rad/s).
     Next targets ahead of the robot win over equal ones behind it."""
+    path_gain: bool = True
+    """Information gain: a target's gain is the unknown area visible from its path (one
+    point per ``viewpoint_spacing``) and goal, not from the goal alone."""
     retarget_hysteresis: float = Field(0.25, ge=0.0)
     """The current target is kept unless another scores this fraction better."""
     lookahead_distance: float = Field(1.0, ge=0.0)

@@ -32,7 +32,7 @@ import numpy as np
 
 from navstack.core.geometry import normalize_angle
 from navstack.exploration.frontiers import Frontier, FrontierSet
-from navstack.exploration.gain import visible_unknown
+from navstack.exploration.gain import path_cells, visible_unknown, visible_unknown_along
 from navstack.exploration.grid_view import GridView
 from navstack.exploration.params import ExploreParams
 
@@ -158,12 +158,22 @@ class InformationGainUtility(ExplorationStrategy):
         bearing = np.arctan2(pts[:, 1] - robot[1], pts[:, 0] - robot[0]) - robot[2]
         turn = np.abs(np.remainder(bearing + math.pi, 2.0 * math.pi) - math.pi)
         turn[np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1]) < 1e-9] = 0.0
-        utility = gain * np.exp(-p.distance_decay * (dist + p.turn_distance * turn))
+        discount = np.exp(-p.distance_decay * (dist + p.turn_distance * turn))
+        utility = gain * discount
         best: dict[int, int] = {}
         for k in np.argsort(-utility, kind="stable"):
             best.setdefault(int(who[k]), int(k))
+        score = {k: float(utility[k]) for k in best.values()}
+        if p.path_gain and best:
+            # what the robot sees on the way counts too: a target whose path passes
+            # another frontier's view is worth that frontier as well
+            every = max(1, round(p.viewpoint_spacing / view.resolution))
+            ks = list(best.values())
+            paths = [path_cells(frontiers.distances, int(r[k]), int(c[k]), every) for k in ks]
+            seen = visible_unknown_along(view, paths, p.sensor_range) * view.resolution ** 2
+            score = {k: float(seen[j] * discount[k]) for j, k in enumerate(ks)}
         out = [Target(frontiers.reachable[i], (float(pts[k, 0]), float(pts[k, 1])),
-                      float(dist[k]), float(utility[k]), float(gain[k]))
+                      float(dist[k]), score[k], float(gain[k]))
                for i, k in best.items()]
         out.sort(key=lambda t: -t.score)
         return out

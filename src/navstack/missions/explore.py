@@ -284,9 +284,10 @@ class Escape(MissionBehaviour):
     """Back away from an obstacle closer than the turning radius (module docstring)."""
 
     def __init__(self, ctx: MissionContext, circumscribed_radius: float = 0.3,
-                 map_topic: str = "/map", margin: float = 0.05, attempts: int = 3,
+                 map_topic: str = "/map", margin: float = 0.05, attempts: int = 5,
                  name: str = "Escape", max_move: float = 1.0, required: bool = True,
-                 local_costmap_topic: str | None = "/local_costmap/costmap") -> None:
+                 local_costmap_topic: str | None = "/local_costmap/costmap",
+                 spin_angle: float = 0.5) -> None:
         super().__init__(ctx, name)
         self.radius = circumscribed_radius
         self.map_topic = map_topic
@@ -305,6 +306,9 @@ class Escape(MissionBehaviour):
         self.flip_refused_forward = False
         self.max_move = max_move
         self.required = required  # False: a robot that cannot get clear is logged, not failed
+        self.refused_ways: set[str] = set()  # straight moves refused since the last motion
+        self.spin_sign = 0.0  # the turn of the last spin tried (0: none yet)
+        self.spin_angle = spin_angle
 
     def initialise(self) -> None:
         self.handle = None
@@ -313,6 +317,8 @@ class Escape(MissionBehaviour):
         self.flip = False
         self.refused = None
         self.flip_refused_forward = False
+        self.refused_ways = set()
+        self.spin_sign = 0.0
 
     def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D,
                           threshold: int = 65) -> tuple[float, float]:
@@ -409,11 +415,17 @@ class Escape(MissionBehaviour):
             if h.result is not None and h.result.status is not GoalStatus.SUCCEEDED:
                 ctx.log(f"{self.name}: {h.action} ended {h.result.status.value}: "
                         f"{h.result.error_msg}")
-                self.flip = not self.flip  # that way is blocked: the other way next
-                self.refused = h.action
-                self.flip_refused_forward = h.action.endswith("drive_on_heading")
+                if h.action.endswith("spin"):
+                    self.spin_sign = -self.spin_sign  # the other turn next
+                    self.refused_ways.add(h.action)
+                else:
+                    self.flip = not self.flip  # that way is blocked: the other way next
+                    self.refused = h.action
+                    self.flip_refused_forward = h.action.endswith("drive_on_heading")
+                    self.refused_ways.add("forward" if self.flip_refused_forward else "back")
             else:
                 self.refused = None  # it moved: both ways are open again
+                self.refused_ways = set()
         grid = ctx.latest(self.map_topic, OccupancyGrid, LATCHED)
         pose = ctx.robot_pose()
         if grid is None or pose is None:
@@ -434,6 +446,22 @@ class Escape(MissionBehaviour):
                 return Status.SUCCESS
             return self.failed(reason)
         self.tries += 1
+        if {"forward", "back"} <= self.refused_ways:
+            # wedged: obstacles ahead and behind (a turn in place ended between two
+            # obstacles, office).  Turn away from the nearest one -- the behaviour server
+            # refuses a turn that would hit anything -- and try straight moves after it
+            if self.spin_sign == 0.0:
+                self.spin_sign = -1.0 if bearing > 0.0 else 1.0
+            angle = self.spin_sign * self.spin_angle
+            self.refused_ways.discard("forward")
+            self.refused_ways.discard("back")
+            self.refused = None
+            ctx.log(f"{self.name}: obstacle {dist:.2f} m away at bearing "
+                    f"{math.degrees(bearing):.0f} deg and both straight moves refused: "
+                    f"turning {math.degrees(angle):.0f} deg")
+            ctx.feedback(f"{self.name}: turning {math.degrees(angle):.0f} deg")
+            self.handle = ctx.spin.send_goal(m.SpinGoal(angle, 10.0))
+            return Status.RUNNING
         forward, distance = self._choose_move(grid, pose, dist, bearing, local)
         if not forward:
             goal: Any = m.BackUpGoal(distance, 0.1, 10.0)
