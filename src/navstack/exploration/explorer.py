@@ -11,11 +11,20 @@ or the benchmark's reference) calls ``planner_frequency`` times per second:
    drop it when its frontier has been observed (its cells are no longer frontier);
 3. pick the best target (:mod:`.strategies`) and say whether to send a new goal:
    explore_lite semantics re-send whenever the best goal moves, the information-gain
-   strategy keeps its target unless another is ``retarget_hysteresis`` better;
+   strategy keeps its target unless another is ``retarget_hysteresis`` better, and
+   looks ahead: within ``lookahead_distance`` (path) of the goal it drives to -- once
+   the unknown area visible from that goal is down to ``lookahead_gain_fraction`` of
+   what it was chosen for -- it sends the next target, so the robot does not slow to a
+   stop at every viewpoint;
 4. when no reachable frontier is left: retry once-blacklisted frontiers that are
    reachable again (``max_goal_attempts``), else report DONE with what was left
    (unreachable frontiers -- e.g. seen through a gap narrower than the robot -- and
    blacklisted ones, each with its reason).
+
+A goal given up because its frontier was observed is simply replaced
+(``Decision.blacklisted`` False: the mission sends the next goal without stopping); one
+given up by a watchdog is blacklisted (``blacklisted`` True: the mission stops the robot
+and escapes first).
 
 The mission reports how each goal ended (:meth:`goal_finished`): an aborted goal
 blacklists its frontier (explore_lite ``reachedGoal``); a reached one is checked

@@ -11,9 +11,13 @@
 * :class:`InformationGainUtility` -- the navstack default: every frontier offers
   viewpoints (its approach cells, one per ``viewpoint_spacing``); a viewpoint's utility
   is the unknown area a lidar there would see (:mod:`.gain`) discounted by its path
-  distance, ``gain * exp(-distance_decay * distance)`` (González-Baños & Latombe 2002).
-  A large far frontier no longer beats a small near one, which is what sends
-  explore_lite back and forth across a building.
+  distance, ``gain * exp(-distance_decay * (distance + turn_distance * turn))``
+  (González-Baños & Latombe 2002), ``turn`` the heading change to face it.  A large far
+  frontier no longer beats a small near one, which is what sends explore_lite back and
+  forth across a building.  With ``path_gain`` the best viewpoint of each frontier is
+  then scored on the unknown area visible from its path as well (one point per
+  ``viewpoint_spacing`` along the wavefront's shortest path, each cell counted once): a
+  target whose way passes the view of another frontier is worth both.
 
 * :class:`NearestFrontier` -- Yamauchi's greedy nearest frontier (the benchmark's
   reference).

@@ -18,7 +18,12 @@ the controller judges its arcs on -- is closer than the robot's turning radius
 after a goal it gave up (stuck) or the navigator aborted, before the next goal: a robot
 wedged at a box corner -- its padded footprint on a lethal cell, so the controller
 refuses to move and the spin recovery cannot turn it -- otherwise stays there.  The
-mission escapes once more before returning home.
+mission escapes once more before returning home.  When both straight moves were
+refused (obstacles ahead and behind: a turn in place that ended between two), the
+escape turns ``spin_angle`` away from the nearest obstacle -- the behaviour server
+refuses a turn that would hit anything -- and tries straight moves again; the next
+turn goes the other way.  A goal whose frontier was observed on the way is replaced in
+place, without stopping or escaping (explore_lite's ``makePlan`` does the same).
 
 :func:`explore_mission` is explore_lite's node: wait for the map, remember the start
 pose, escape, explore, and with ``return_to_init`` return to the start pose -- a checked
