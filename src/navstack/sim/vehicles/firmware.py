@@ -17,8 +17,14 @@ navigation mux's timeout), which is what a vehicle must do when its link dies.
   ramps (integral separation), so on the simulator's vehicle model it is transparent:
   the cart accelerates at the model's limit and settles on the setpoint, exactly as
   the in-process run's robot does (the hardware-in-the-loop comparison's premise).
-  Steering: a stepper that moves toward the commanded step count at ``step_rate``
-  steps/s (the profile's steering slew times 497.84 steps/rad) in whole steps.
+  Steering: the stepper drives the wheels toward the commanded whole step count at a
+  finite rate.  That rate is the simulator's Ackermann steering slew
+  (``max_steering_rate``; 0.6 rad/s = 299 steps/s for the cart), so the Uno hands the
+  vehicle model the angle its stepper is heading for and the model moves the wheels:
+  one slew, not two.  (A second rate limit in the firmware made the model trail the
+  stepper by one actuation tick, and a stepper that banked steps while it stood jumped
+  up to a second's worth of steps at once: the cart through the wire steered 0.03 rad
+  off the in-process run within 0.2 s of its first command.)
 * :class:`CartMega` -- the sensor Arduino: wheel pulses from the distance the wheel
   turned, the pulse-period speed, and the IMU "raw" values a real MPU9250 would give
   before the calibration ``A (raw - b)`` (see :mod:`navstack.drivers.cart_sensors`).
@@ -104,37 +110,33 @@ class CartUno:
     """The golf cart's steering/speed Arduino (module docstring)."""
 
     wheelbase: float
-    step_rate: float
-    """Stepper speed [steps/s]."""
     watchdog: float = 0.5
     pid: SpeedPid = field(default_factory=SpeedPid)
     command: CartCommand | None = None
     received_at: float = -math.inf
-    steps: int = 0
-    """Stepper position [steps]."""
+    target_steps: int = 0
+    """The step count the stepper is driving to: the last live command's (held when
+    commands stop -- the stepper finishes its move, the cart stops)."""
     throttle: float = 0.0
-    _step_budget: float = 0.0
 
     def receive(self, cmd: CartCommand, now: float) -> None:
         self.command, self.received_at = cmd, now
 
     @property
     def steering(self) -> float:
-        """Wheel angle the stepper holds [rad, positive left]."""
-        return -self.steps / STEPS_PER_RAD
+        """Wheel angle the stepper is heading for [rad, positive left]."""
+        return -self.target_steps / STEPS_PER_RAD
 
     def step(self, now: float, dt: float, measured_speed: float) -> Twist2D:
-        """Advance the stepper and the PID by ``dt``; the motion the cart is asked for.
+        """Advance the PID by ``dt``; the motion the cart is asked for (the vehicle
+        model's steering slew moves the wheels toward :attr:`steering`).
 
         ``measured_speed``: the drive's signed speed [m/s] (the motor controller's
         encoder, which the PID closes its loop on)."""
         alive = self.command is not None and now - self.received_at <= self.watchdog
         cmd = self.command if alive else None
-        target = cmd.steps if cmd is not None else self.steps
-        self._step_budget = min(self._step_budget + self.step_rate * dt, self.step_rate)
-        moves = min(abs(target - self.steps), int(self._step_budget))
-        self._step_budget -= moves
-        self.steps += int(math.copysign(moves, target - self.steps)) if moves else 0
+        if cmd is not None:
+            self.target_steps = cmd.steps
         setpoint = cmd.speed if cmd is not None else 0.0
         along = measured_speed if setpoint >= 0.0 else -measured_speed
         self.throttle = self.pid.update(abs(setpoint), along, dt)

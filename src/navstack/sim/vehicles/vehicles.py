@@ -34,7 +34,6 @@ from navstack.drivers.cart_sensors import MAX_LINE
 from navstack.drivers.framing import DatagramFramer, FixedFramer, LineFramer
 from navstack.drivers.golf_cart import (
     CART_COMMAND,
-    STEPS_PER_RAD,
     decode_cart_command,
     plausible_cart_command,
 )
@@ -139,7 +138,7 @@ class CartHil(HilVehicle):
         k = robot.kinematics
         self.steering_path = directory / "ttyCART_STEERING"
         self.sensors_path = directory / "ttyCART_SENSORS"
-        self.uno = CartUno(k.wheelbase, k.max_steering_rate * STEPS_PER_RAD)
+        self.uno = CartUno(k.wheelbase)
         self.mega = CartMega()
         if accel_calibration is not None:
             self.mega.accel_a, self.mega.accel_b = accel_calibration
