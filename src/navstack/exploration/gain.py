@@ -148,16 +148,27 @@ def path_cells(distances: NDArray[np.float64], row: int, col: int, every: int
 
 
 def visible_unknown_along(view: GridView, paths: list[NDArray[np.int64]],
-                          sensor_range: float, beams: int = 180) -> NDArray[np.int64]:
+                          sensor_range: float, beams: int = 180,
+                          seen_from: tuple[int, int] | None = None) -> NDArray[np.int64]:
     """Per path (``(K, 2)`` cells): unknown cells visible within ``sensor_range`` from
-    any of its cells -- what the robot sees on the way to a goal and there."""
+    any of its cells -- what the robot sees on the way to a goal and there.  Cells
+    visible from ``seen_from`` (the robot's cell: every path starts there, and what it
+    sees now it sees whichever way it goes) are not counted."""
     if not paths:
         return np.zeros(0, dtype=np.int64)
     offsets = np.zeros(len(paths) + 1, dtype=np.int64)
     offsets[1:] = np.cumsum([len(q) for q in paths])
     cells = np.concatenate(paths).astype(np.int64)
-    stop = ~view.unknown & ~view.free
+    stop = np.ascontiguousarray(~view.unknown & ~view.free)
+    unknown = np.ascontiguousarray(view.unknown)
+    range_cells = sensor_range / view.resolution
+    if seen_from is not None:
+        here = np.zeros(view.shape, dtype=np.int32)
+        _union_kernel(unknown, stop, np.array([seen_from[0]], dtype=np.int64),
+                      np.array([seen_from[1]], dtype=np.int64), np.array([0, 1]),
+                      range_cells, int(beams), here)
+        unknown = unknown & (here == 0)
     stamp = np.zeros(view.shape, dtype=np.int32)
-    return _union_kernel(np.ascontiguousarray(view.unknown), np.ascontiguousarray(stop),
+    return _union_kernel(unknown, stop,
                          np.ascontiguousarray(cells[:, 0]), np.ascontiguousarray(cells[:, 1]),
-                         offsets, sensor_range / view.resolution, int(beams), stamp)
+                         offsets, range_cells, int(beams), stamp)

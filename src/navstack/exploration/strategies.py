@@ -174,7 +174,8 @@ class InformationGainUtility(ExplorationStrategy):
             every = max(1, round(p.viewpoint_spacing / view.resolution))
             ks = list(best.values())
             paths = [path_cells(frontiers.distances, int(r[k]), int(c[k]), every) for k in ks]
-            seen = visible_unknown_along(view, paths, p.sensor_range) * view.resolution ** 2
+            seen = visible_unknown_along(view, paths, p.sensor_range,
+                                         seen_from=frontiers.start) * view.resolution ** 2
             score = {k: float(seen[j] * discount[k]) for j, k in enumerate(ks)}
         out = [Target(frontiers.reachable[i], (float(pts[k, 0]), float(pts[k, 1])),
                       float(dist[k]), score[k], float(gain[k]))
