@@ -62,6 +62,15 @@ def test_path_from_array_as_array_and_length() -> None:
     assert Path.from_array(xyt[:1]).length() == 0.0
 
 
+def test_path_num_poses_does_not_build_the_poses_of_an_array_path() -> None:
+    lazy = Path.from_array(np.zeros((5, 3)), frame_id="map")
+    assert lazy.num_poses == 5
+    assert lazy._poses is None  # still only the array
+    assert len(lazy.poses) == 5 and lazy.num_poses == 5
+    assert Path().num_poses == 0 and Path.from_array(np.zeros((0, 3))).num_poses == 0
+    assert Path(poses=lazy.poses).num_poses == 5
+
+
 def test_laserscan_points_drop_invalid_ranges() -> None:
     scan = LaserScan(angle_min=-math.pi / 2, angle_max=math.pi / 2,
                      angle_increment=math.pi / 2, range_min=0.1, range_max=10.0,

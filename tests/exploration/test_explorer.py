@@ -100,6 +100,7 @@ def test_progress_and_stuck_watchdogs_blacklist_the_goal() -> None:
     assert ex.plan(view, (0.5, 1.0, 1.0), 10.0).kind is DecisionKind.KEEP
     stuck = ex.plan(view, (0.5, 1.0, 2.0), 16.0)
     assert stuck.cancelled.startswith("the robot moved less than 0.25 m in 15 s")
+    assert stuck.blacklisted
     assert stuck.kind is DecisionKind.DONE
     # progress_timeout: the robot moves, but no closer to the goal
     ex2 = FrontierExplorer(ExploreParams(progress_timeout=30.0, stuck_timeout=100.0,
@@ -110,23 +111,62 @@ def test_progress_and_stuck_watchdogs_blacklist_the_goal() -> None:
     assert d.cancelled.startswith("no progress toward it for 30 s (progress_timeout)")
 
 
-def test_information_gain_looks_ahead_to_the_next_target_near_its_goal() -> None:
-    """Within ``lookahead_distance`` of its goal the information-gain strategy sends the
-    next target (no stop at the viewpoint); the frontier it leaves is judged as reached."""
+def _two_frontiers(right_unknown_cols: slice) -> GridView:
+    """A 4 x 2 m room: a thin frontier on the left wall (x = 0) and unknown space
+    ``right_unknown_cols`` on the right."""
     unknown = np.zeros((20, 40), bool)
-    unknown[:, :3] = True          # a frontier at x = 0.3 m ...
-    unknown[:, 37:] = True         # ... and one at x = 3.7 m
+    unknown[:, 0] = True
+    unknown[:, right_unknown_cols] = True
     free = ~unknown
-    view = GridView(unknown, free, free.copy(), 0.1)
-    for ahead, expected in ((0.8, DecisionKind.SEND), (0.0, DecisionKind.KEEP)):
-        ex = FrontierExplorer(ExploreParams(strategy="information_gain",
-                                            lookahead_distance=ahead))
-        first = ex.plan(view, (2.6, 1.0, 0.0), 0.0)
-        assert first.kind is DecisionKind.SEND and first.target is not None
-        assert first.target.goal[0] > 3.0  # the near frontier, on the right
-        near = ex.plan(view, (first.target.goal[0] - 0.5, 1.0, 0.0), 1.0)
-        assert near.kind is expected
-        if ahead:
-            assert near.reason == "look-ahead" and near.target is not None
-            assert near.target.goal[0] < 1.0  # on to the left frontier
-            assert len(ex._arrivals) == 1  # the right one is judged like a reached goal
+    return GridView(unknown, free, free.copy(), 0.1)
+
+
+def test_information_gain_looks_ahead_once_its_goal_has_shown_what_it_was_sent_for() -> None:
+    """Within ``lookahead_distance`` (path) of the goal it drives to, the information-gain
+    strategy sends the next target -- no slow-down to a stop at the viewpoint -- but only
+    once the unknown area visible from that goal has shrunk to ``lookahead_gain_fraction``
+    of what it was; the target it leaves is judged like a reached goal."""
+    unseen = _two_frontiers(slice(30, 40))    # the right metre unknown
+    seen = _two_frontiers(slice(30, 31))      # all but a strip of it observed
+    ex = FrontierExplorer(ExploreParams(strategy="information_gain", lookahead_distance=1.0,
+                                        lookahead_gain_fraction=0.5))
+    first = ex.plan(unseen, (1.0, 1.0, 0.0), 0.0)
+    assert first.kind is DecisionKind.SEND and first.target is not None
+    goal_x = first.target.goal[0]
+    assert 2.65 <= goal_x <= 3.0 and first.target.distance > 1.0  # the large right one
+    # 0.75 m from the goal, nothing more seen: keep driving to it
+    near = (goal_x - 0.75, 1.0, 0.0)
+    assert ex.plan(unseen, near, 1.0).kind is DecisionKind.KEEP
+    # the same spot once most of the right side is known: on to the left frontier
+    ahead = ex.plan(seen, near, 2.0)
+    assert ahead.kind is DecisionKind.SEND and ahead.reason == "look-ahead"
+    assert ahead.target is not None and ahead.target.goal[0] < 0.5
+    assert len(ex._arrivals) == 1  # the right one is judged like a reached goal
+    # without the look-ahead the robot keeps its goal until it arrives
+    ex0 = FrontierExplorer(ExploreParams(strategy="information_gain", lookahead_distance=0.0))
+    ex0.plan(unseen, (1.0, 1.0, 0.0), 0.0)
+    assert ex0.plan(seen, near, 2.0).kind is DecisionKind.KEEP
+
+
+def test_a_goal_sent_from_within_the_look_ahead_band_is_not_skipped() -> None:
+    """A target sent less than ``lookahead_distance`` away is driven to: looking ahead at
+    once would drop every short goal before the robot got there."""
+    seen = _two_frontiers(slice(30, 31))
+    ex = FrontierExplorer(ExploreParams(strategy="information_gain", lookahead_distance=1.0,
+                                        lookahead_gain_fraction=1.0))
+    first = ex.plan(seen, (2.2, 1.0, 0.0), 0.0)
+    assert first.kind is DecisionKind.SEND and first.target is not None
+    assert first.target.goal[0] > 2.5 and first.target.distance < 1.0
+    assert ex.plan(seen, (2.3, 1.0, 0.0), 1.0).kind is DecisionKind.KEEP
+
+
+def test_an_observed_frontier_is_given_up_without_blacklisting() -> None:
+    """The mission only stops and escapes after a failed goal (``blacklisted``); a goal
+    whose frontier was observed on the way is simply replaced by the next one."""
+    view = _one_frontier_view()
+    ex = FrontierExplorer(ExploreParams(strategy="explore_lite"))
+    assert ex.plan(view, (0.5, 1.0, 0.0), 0.0).kind is DecisionKind.SEND
+    free = np.ones((20, 40), bool)
+    done = ex.plan(GridView(~free, free, free.copy(), 0.1), (1.5, 1.0, 0.0), 1.0)
+    assert done.cancelled == "its frontier was observed"
+    assert not done.blacklisted and ex.stats.blacklisted == 0

@@ -62,20 +62,27 @@ def test_explore_lite_cost_is_potential_times_distance_minus_gain_times_size() -
 def test_information_gain_discounts_by_path_distance() -> None:
     v = corridor_view()
     fs = find_frontiers(v, (0.25, 1.5), min_frontier_size=0.3)
-    ig = InformationGainUtility(ExploreParams(distance_decay=0.35, sensor_range=3.5))
+    ig = InformationGainUtility(ExploreParams(distance_decay=0.35, sensor_range=3.5,
+                                              turn_distance=0.0, path_gain=False))
     ranked = ig.rank(fs, v, (0.25, 1.5, 0.0))
     assert len(ranked) == 2
     for t in ranked:
         assert t.score == pytest.approx(t.gain * math.exp(-0.35 * t.distance))
         assert t.gain > 0
+    # with the turn term: the path is lengthened by turn_distance x the heading change
+    turned = InformationGainUtility(ExploreParams(distance_decay=0.35, turn_distance=0.26,
+                                                  path_gain=False)).rank(fs, v, (0.25, 1.5, 0.0))
+    for t in turned:
+        turn = abs(math.remainder(math.atan2(t.goal[1] - 1.5, t.goal[0] - 0.25), 2 * math.pi))
+        assert t.score == pytest.approx(t.gain * math.exp(-0.35 * (t.distance + 0.26 * turn)))
     # more unknown area is visible from the long frontier; without decay it wins
-    flat = InformationGainUtility(ExploreParams(distance_decay=0.0)).rank(fs, v,
-                                                                         (0.25, 1.5, 0.0))
+    flat = InformationGainUtility(ExploreParams(distance_decay=0.0, path_gain=False)).rank(
+        fs, v, (0.25, 1.5, 0.0))
     assert flat[0].frontier.size_m == pytest.approx(2.0)
     assert flat[0].gain > flat[1].gain
     # a steep decay prefers the near frontier
-    steep = InformationGainUtility(ExploreParams(distance_decay=2.0)).rank(fs, v,
-                                                                          (0.25, 1.5, 0.0))
+    steep = InformationGainUtility(ExploreParams(distance_decay=2.0, path_gain=False)).rank(
+        fs, v, (0.25, 1.5, 0.0))
     assert steep[0].frontier.size_m == pytest.approx(0.5)
 
 
@@ -106,3 +113,68 @@ def test_visible_unknown_counts_cells_in_range_until_an_obstacle() -> None:
     inside = visible_unknown(v, np.array([20]), np.array([20]), 2.0, beams=720,
                              blocked=blocked)[0]
     assert inside <= int((np.hypot(r - 20, c - 20) < 3.0).sum())
+
+
+def test_information_gain_prefers_the_target_ahead_of_the_robot() -> None:
+    """Two equal frontiers at the ends of a strip, the robot midway: the one it faces
+    wins (``turn_distance`` lengthens the other's path by the turn); without the term
+    the two score the same."""
+    h, w = 20, 61
+    unknown = np.zeros((h, w), bool)
+    unknown[:, :5] = True
+    unknown[:, -5:] = True
+    free = ~unknown
+    v = GridView(unknown, free, free.copy(), RES)
+    robot_xy = (3.05, 1.0)
+    fs = find_frontiers(v, robot_xy, min_frontier_size=0.3)
+    assert len(fs.reachable) == 2
+    for yaw, side in ((0.0, 1.0), (math.pi, -1.0)):
+        ranked = InformationGainUtility(ExploreParams(turn_distance=0.26, path_gain=False)
+                                        ).rank(fs, v, (*robot_xy, yaw))
+        assert (ranked[0].goal[0] - robot_xy[0]) * side > 0
+        assert ranked[0].score > ranked[1].score
+    flat = InformationGainUtility(ExploreParams(turn_distance=0.0, path_gain=False)).rank(
+        fs, v, (*robot_xy, 0.0))
+    assert flat[0].score == pytest.approx(flat[1].score, rel=1e-6)
+    # facing one end, the other is behind: about pi rad x 0.26 m/rad more path
+    turned = InformationGainUtility(ExploreParams(turn_distance=0.26, path_gain=False)).rank(
+        fs, v, (*robot_xy, 0.0))
+    behind = min(turned, key=lambda t: t.goal[0])
+    turn = abs(math.remainder(math.atan2(behind.goal[1] - robot_xy[1],
+                                         behind.goal[0] - robot_xy[0]), 2 * math.pi))
+    assert turn == pytest.approx(math.pi, abs=0.1)
+    assert behind.score == pytest.approx(
+        behind.gain * math.exp(-0.35 * (behind.distance + 0.26 * turn)), rel=1e-6)
+
+
+def test_path_gain_counts_what_the_way_to_a_target_sees_but_not_what_the_robot_sees_now(
+        ) -> None:
+    """An 8 m corridor with unknown space at its far end and a side room half way: the
+    far target's path passes the room's door, so with ``path_gain`` its score counts the
+    room too; what is visible from the robot's own cell counts for no target."""
+    from navstack.exploration.gain import path_cells, visible_unknown_along
+
+    h, w = 20, 80
+    unknown = np.zeros((h, w), bool)
+    free = np.zeros((h, w), bool)
+    free[8:12, :75] = True               # the corridor, rows 8..11
+    unknown[8:12, 75:] = True            # its unknown far end
+    unknown[12:20, 38:46] = True         # the side room, door at row 12
+    v = GridView(unknown, free, free.copy(), RES)
+    robot = (0.25, 1.0, 0.0)
+    fs = find_frontiers(v, robot[:2], min_frontier_size=0.3)
+    params = ExploreParams(turn_distance=0.0)
+    plain = {round(t.goal[0]): t for t in InformationGainUtility(
+        params.updated(path_gain=False)).rank(fs, v, robot)}
+    along = {round(t.goal[0]): t for t in InformationGainUtility(params).rank(fs, v, robot)}
+    far_plain, far_along = plain[7], along[7]
+    discount = math.exp(-0.35 * far_plain.distance)
+    assert far_plain.score == pytest.approx(far_plain.gain * discount)
+    # the room (0.64 m^2) seen from the corridor on the way
+    assert far_along.score / discount - far_plain.gain > 0.4
+    # from the robot's cell alone nothing new is seen
+    start = fs.start
+    assert start is not None
+    assert visible_unknown_along(v, [np.array([start])], 3.5, seen_from=start)[0] == 0
+    path = path_cells(fs.distances, *v.cell_of(*far_along.goal), every=5)
+    assert tuple(path[-1]) == start and tuple(path[0]) == v.cell_of(*far_along.goal)

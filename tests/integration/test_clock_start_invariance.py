@@ -39,3 +39,16 @@ def test_same_mission_from_three_clock_start_values_is_identical(tmp_path: Path)
         start = SIM_EPOCH + off
         assert [(round(t - start, 6), x, y, th) for t, x, y, th in run["trajectory"]] == \
             [(round(t - SIM_EPOCH, 6), x, y, th) for t, x, y, th in ref["trajectory"]], off
+        assert [round(x, 9) for x in run["scan_to_cmd_s"]] == \
+            [round(x, 9) for x in ref["scan_to_cmd_s"]], off
+
+    # ScanToCmd follows each controller command back to the newest scan the local
+    # costmap had marked: on simulated time nothing runs late and the latency is the
+    # chain's schedule -- the 10 Hz scan waits for the next 10 Hz costmap update (the
+    # update at a scan's own tick runs before its delivery), the 20 Hz controller runs
+    # then or 50 ms later, the smoother 1 ms after it (the bench's "scheduled" part)
+    lat = ref["scan_to_cmd_s"]
+    assert len(lat) > 200  # one per controller command of the ~13 s goal
+    assert set(ref["scan_to_cmd_late_s"]) == {0.0}
+    assert lat == ref["scan_to_cmd_scheduled_s"]
+    assert sorted({round(x, 6) for x in lat}) == [0.101, 0.151, 0.201]

@@ -108,4 +108,9 @@ def test_lockstep_split_matches_the_same_stack_in_one_process(tmp_path: Path) ->
     # monitor and twist_mux, publishes /cmd_vel
     assert any(vx > 0.1 for _, vx, _ in robot["cmd_vel"])
     assert robot["lockstep"] and base["lockstep"]
+    # the robot's scan -> /cmd_vel path is all on the robot: on lockstep time its
+    # traced latency is the in-process run's timer phases (ScanToCmd), none late
+    assert sorted({round(x, 6) for x in robot["scan_to_cmd_s"]}) == \
+        sorted({round(x, 6) for x in ref["scan_to_cmd_s"]}) == [0.101, 0.151, 0.201]
+    assert set(robot["scan_to_cmd_late_s"]) == {0.0}
     assert abs(base["robot_offset_s"]) < 1e-9  # lockstep: the barrier's exact estimate

@@ -32,7 +32,8 @@ def test_slam_writes_files_and_json_metrics(tmp_path: Path) -> None:
     assert lines[5] == f"wrote {', '.join(FILES)} to {out}"
     report = json.loads(js.read_text())
     assert set(report["metrics"]) == {"scans", "nodes", "loop_closures", "odometry_events",
-                                      "recovered_scans", "trans_err_m", "trans_err_std_m",
+                                      "recovered_scans", "ambiguous_scans", "trans_err_m",
+                                      "trans_err_std_m",
                                       "rot_err_deg", "rot_err_std_deg", "ate_m",
                                       "odometry_ate_m", "ms_per_scan", "speedup"}
     assert f"ATE {report['metrics']['ate_m']:.4f} m aligned" in lines[2]

@@ -81,6 +81,24 @@ def test_gap_every_second_interval_is_flagged(intel_text: str) -> None:
     assert stats.wide_searches >= 15
 
 
+def test_gaps_every_second_interval_keep_the_map() -> None:
+    """The failure mode of issue 15 ("a log whose odometry has gaps: the map fails
+    entirely"), on the first 100 ACES scans with the ODOM lines of every second interval
+    removed (steps of ~1 m along corridors with no odometry): before the gap scans were
+    searched wide around a constant-velocity prediction with a heading prior, the ATE was
+    4.4 m; now well under a metre, and every gap is flagged."""
+    aces = data_file("carmen/aces-corrected.log.gz")
+    run = _run_text(drop_odometry(_read_text(aces)), "aces-gaps", 100)
+    assert run.odometry_gaps == 50
+    stats = run.mapper.stats
+    assert [k for k, reason in stats.odometry_events if reason == "odometry gap"] == list(
+        range(1, 100, 2))
+    assert stats.wide_searches >= 50  # every gap scan is searched wide
+    assert run.scores is not None and run.scores.ate.rms_m <= 1.0
+    # the ambiguous placements are flagged and are gap scans
+    assert set(stats.ambiguous_scans) <= set(range(1, 100, 2))
+
+
 def test_eighty_degree_turn_without_odometry(intel_text: str) -> None:
     """Acceptance 2b: an ~80 degree turn cut out of the log, no odometry across it; the
     scan after the cut is placed by the wide search, ATE <= 0.15 m."""

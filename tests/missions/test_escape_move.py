@@ -108,3 +108,54 @@ def test_lethal_cells_of_the_local_costmap_count_in_its_own_frame() -> None:
     forward, distance = e._choose_move(clear_map, map_pose, dist, bearing,
                                        [(local, odom_pose)])
     assert not forward and distance == pytest.approx(0.1 + e.margin, abs=0.03)
+
+
+class _Handle:
+    def __init__(self, action: str, goal: Any) -> None:
+        from navstack.runtime.actions import GoalStatus
+
+        self.action, self.goal, self.done = action, goal, True
+        self.result: Any = type("R", (), {"status": GoalStatus.FAILED,
+                                          "error_msg": "collision ahead"})()
+
+
+class _Client:
+    def __init__(self, action: str, sent: list[_Handle]) -> None:
+        self.action, self.sent = action, sent
+
+    def send_goal(self, goal: Any) -> _Handle:
+        self.sent.append(_Handle(self.action, goal))
+        return self.sent[-1]
+
+
+def test_wedged_between_two_obstacles_it_turns_away_from_the_nearer() -> None:
+    """Office, information gain, seed 2: a turn in place left the robot 0.12 m from an
+    obstacle ahead-left with another behind; BackUp and DriveOnHeading were both refused
+    for good.  Once both straight moves are refused, the escape asks for a turn away
+    from the nearest obstacle (the behaviour server refuses one that would hit), then
+    straight moves again, the next turn the other way."""
+    from dataclasses import replace
+
+    from navstack.core.msgs import Header
+
+    # a box 0.12 m ahead-left of the robot, a wall 0.2 m behind it
+    grid = grid_with([(0.05, 0.12, 0.6, 0.6), (-0.75, -2.0, -0.35, 2.0)])
+    grid = replace(grid, header=Header(100.0, "map"))
+    ctx: Any = _Ctx(grid, Pose2D(0.0, 0.0, 0.0))
+    sent: list[_Handle] = []
+    ctx.backup = _Client("/backup", sent)
+    ctx.drive_on_heading = _Client("/drive_on_heading", sent)
+    ctx.spin = _Client("/spin", sent)
+    ctx.feedback = lambda *a, **k: None
+    e = Escape(ctx, circumscribed_radius=0.3, local_costmap_topic=None)
+    e.initialise()
+    for _ in range(12):
+        if e.update().name != "RUNNING":
+            break
+    actions = [h.action for h in sent]
+    assert actions[:2] in (["/backup", "/drive_on_heading"], ["/drive_on_heading", "/backup"])
+    assert actions[2] == "/spin" and sent[2].goal.target_yaw == pytest.approx(-0.5)
+    assert any("both straight moves refused: turning -29 deg" in x for x in ctx.events)
+    # that turn refused too: straight moves again, and the next turn is the other way
+    assert sorted(actions[3:]) == ["/backup", "/drive_on_heading"]
+    assert len(sent) == e.attempts and e.spin_sign == 1.0

@@ -9,10 +9,13 @@ import pytest
 
 from navstack.core.polygon import Footprint
 from navstack.sim.collision import (
+    _polygons_distance,
     clearance,
     footprint_clearance,
     footprint_collides,
     grid_clearance,
+    grid_polygon_clearance,
+    polygon_hits_grid,
 )
 from navstack.sim.world import MovingObstacle, World
 
@@ -146,3 +149,29 @@ def test_grid_clearance_matches_brute_force() -> None:
         expect = min(float(np.hypot(dx, dy).min()), 3.0)
         assert grid_clearance(occ, ox, oy, res, float(x), float(y), 3.0) == \
             pytest.approx(expect, abs=1e-12)
+
+
+def test_grid_polygon_clearance_is_the_minimum_over_every_occupied_cell() -> None:
+    """The nearest-first search with its early stops finds exactly the brute-force
+    minimum of the polygon-to-square distance over all occupied cells (capped)."""
+    rng = np.random.default_rng(4)
+    occ = rng.random((60, 80)) < 0.02
+    ox, oy, res = -1.0, 0.5, 0.1
+    rows, cols = np.nonzero(occ)
+    body = np.array([[0.3, 0.2], [-0.25, 0.2], [-0.3, 0.0], [-0.25, -0.2], [0.3, -0.2]])
+    checked = 0
+    for x, y, th, cap in zip(rng.uniform(ox - 1, ox + 9, 300), rng.uniform(oy - 1, oy + 7, 300),
+                             rng.uniform(-math.pi, math.pi, 300),
+                             rng.choice([0.3, 1.0, 3.0], 300), strict=True):
+        rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+        poly = np.ascontiguousarray(body @ rot.T + [x, y])
+        if polygon_hits_grid(occ, ox, oy, res, poly):
+            continue
+        expect = float(cap)
+        for r, c in zip(rows, cols, strict=True):
+            x0, y0 = ox + c * res, oy + r * res
+            sq = np.array([[x0, y0], [x0 + res, y0], [x0 + res, y0 + res], [x0, y0 + res]])
+            expect = min(expect, _polygons_distance(poly, sq))
+        assert grid_polygon_clearance(occ, ox, oy, res, poly, float(cap)) == expect
+        checked += 1
+    assert checked > 150

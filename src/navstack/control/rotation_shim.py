@@ -125,7 +125,7 @@ class RotationShimController(Controller):
 
     # --- nav2_core::Controller ----------------------------------------------------------------
     def set_plan(self, path: Path) -> None:
-        goal = tuple(path.as_array()[-1, :2]) if path.poses else None
+        goal = tuple(path.as_array()[-1, :2]) if path.num_poses else None
         changed = goal is None or self._goal_xy is None or math.dist(goal, self._goal_xy) > 1e-6
         self.path_updated = changed if self.params.rotate_to_heading_once else True
         self._goal_xy = goal
@@ -146,7 +146,7 @@ class RotationShimController(Controller):
         if path is not None and path is not self._path:
             self.set_plan(path)
         plan = self._path
-        if plan is None or not plan.poses:
+        if plan is None or not plan.num_poses:
             return self._primary(pose, velocity, path, costmap, now)
         p = self.params
         xy = plan.as_array()

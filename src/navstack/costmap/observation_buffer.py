@@ -148,6 +148,11 @@ class ObservationBuffer:
         while self._obs and now - self._obs[-1].stamp > self.params.observation_persistence:
             self._obs.pop()
 
+    @property
+    def newest_stamp(self) -> float | None:
+        """Stamp of the newest observation held (``None`` when empty)."""
+        return self._obs[0].stamp if self._obs else None
+
     def observations(self, now: float | None = None) -> list[Observation]:
         if now is not None:
             self.purge(now)

@@ -11,11 +11,20 @@ or the benchmark's reference) calls ``planner_frequency`` times per second:
    drop it when its frontier has been observed (its cells are no longer frontier);
 3. pick the best target (:mod:`.strategies`) and say whether to send a new goal:
    explore_lite semantics re-send whenever the best goal moves, the information-gain
-   strategy keeps its target unless another is ``retarget_hysteresis`` better;
+   strategy keeps its target unless another is ``retarget_hysteresis`` better, and
+   looks ahead: within ``lookahead_distance`` (path) of the goal it drives to -- once
+   the unknown area visible from that goal is down to ``lookahead_gain_fraction`` of
+   what it was chosen for -- it sends the next target, so the robot does not slow to a
+   stop at every viewpoint;
 4. when no reachable frontier is left: retry once-blacklisted frontiers that are
    reachable again (``max_goal_attempts``), else report DONE with what was left
    (unreachable frontiers -- e.g. seen through a gap narrower than the robot -- and
    blacklisted ones, each with its reason).
+
+A goal given up because its frontier was observed is simply replaced
+(``Decision.blacklisted`` False: the mission sends the next goal without stopping); one
+given up by a watchdog is blacklisted (``blacklisted`` True: the mission stops the robot
+and escapes first).
 
 The mission reports how each goal ended (:meth:`goal_finished`): an aborted goal
 blacklists its frontier (explore_lite ``reachedGoal``); a reached one is checked
@@ -33,6 +42,7 @@ import numpy as np
 
 from navstack.exploration.blacklist import Blacklist
 from navstack.exploration.frontiers import Frontier, FrontierSet, find_frontiers
+from navstack.exploration.gain import visible_unknown
 from navstack.exploration.grid_view import FloatArray, GridView
 from navstack.exploration.params import ExploreParams
 from navstack.exploration.strategies import ExplorationStrategy, Target, make_strategy
@@ -60,6 +70,9 @@ class Decision:
     frontiers: FrontierSet | None
     cancelled: str = ""
     """Why the previous goal was given up, if it was (to cancel it on the navigator)."""
+    blacklisted: bool = False
+    """The goal given up (``cancelled``) was a failure -- no progress, stuck -- and its
+    frontier is blacklisted; otherwise its frontier was simply observed."""
 
 
 @dataclass
@@ -71,6 +84,10 @@ class _Pursuit:
     last_progress: float
     anchor: tuple[float, float]
     anchor_time: float
+    sent_distance: float = math.inf
+    """Path distance [m] to the goal when it was sent (or last moved)."""
+    sent_gain: float = 0.0
+    """Its information gain [m^2] then."""
 
 
 @dataclass
@@ -129,6 +146,7 @@ class FrontierExplorer:
         self._judge_arrivals(view, fs, now)
         fs = self._search(view, robot) if self._blacklist_changed else fs
         cancelled = self._watch(view, fs, robot, now)
+        failed = bool(cancelled) and self._blacklist_changed
         if cancelled:
             fs = self._search(view, robot)
         pending = self._pending_mask(view)
@@ -137,7 +155,7 @@ class FrontierExplorer:
         if not ranked:
             if pending is not None:
                 return Decision(DecisionKind.WAIT, None,
-                                "waiting for the map at a reached frontier", fs, cancelled)
+                                "waiting for the map at a reached frontier", fs, cancelled, failed)
             released = self.blacklist.release_retryable()
             if released:
                 self.stats.retries += len(released)
@@ -147,7 +165,8 @@ class FrontierExplorer:
                 ranked = self.strategy.rank(fs, view, robot)
             if not ranked:
                 self._pursuit = None
-                return Decision(DecisionKind.DONE, None, self._done_reason(fs), fs, cancelled)
+                return Decision(DecisionKind.DONE, None, self._done_reason(fs), fs, cancelled,
+                                failed)
         best = ranked[0]
         current = self._current_in(ranked, view)
         if current is not None:
@@ -158,10 +177,10 @@ class FrontierExplorer:
             else:
                 keep = not self.strategy.better(best.score, current.score,
                                                 p.retarget_hysteresis)
-                ahead = self._look_ahead(ranked, current, now) if keep else None
+                ahead = self._look_ahead(ranked, current, fs, view, now) if keep else None
                 if ahead is not None:
                     self._start(ahead, view, robot, now)
-                    return Decision(DecisionKind.SEND, ahead, "look-ahead", fs, cancelled)
+                    return Decision(DecisionKind.SEND, ahead, "look-ahead", fs, cancelled, failed)
             if keep:
                 old_goal = self._pursuit.target.goal
                 self._pursuit.target = current
@@ -170,22 +189,40 @@ class FrontierExplorer:
                 # information-gain target is updated when it moves by a viewpoint spacing
                 tol = 2.0 * view.resolution if lite else p.viewpoint_spacing
                 if not _near(current.goal, old_goal, tol):
-                    return Decision(DecisionKind.SEND, current, "goal moved", fs, cancelled)
+                    self._pursuit.sent_distance = current.distance
+                    self._pursuit.sent_gain = current.gain
+                    return Decision(DecisionKind.SEND, current, "goal moved", fs, cancelled, failed)
                 self._pursuit.target = Target(current.frontier, old_goal, current.distance,
                                               current.score, current.gain)
-                return Decision(DecisionKind.KEEP, current, "", fs, cancelled)
+                return Decision(DecisionKind.KEEP, current, "", fs, cancelled, failed)
         self._start(best, view, robot, now)
-        return Decision(DecisionKind.SEND, best, "new target", fs, cancelled)
+        return Decision(DecisionKind.SEND, best, "new target", fs, cancelled, failed)
 
-    def _look_ahead(self, ranked: list[Target], current: Target, now: float
-                    ) -> Target | None:
-        """The next target when the robot is within ``lookahead_distance`` of the
-        current goal (params); the current one is then judged like a reached goal."""
+    def _look_ahead(self, ranked: list[Target], current: Target, fs: FrontierSet,
+                    view: GridView, now: float) -> Target | None:
+        """The next target when the robot is within ``lookahead_distance`` (path) of the
+        goal it drives to (params); the current one is then judged like a reached goal.
+        The distance is the pursued goal's, not the frontier's best viewpoint now: that
+        one recedes as the robot approaches (the frontier moves as it is seen), and the
+        robot would slow down for the goal it was sent before the look-ahead fired."""
         p = self.params
-        if p.lookahead_distance <= 0.0 or current.distance > p.lookahead_distance:
+        if p.lookahead_distance <= 0.0 or self._pursuit is None:
             return None
+        if self._pursuit.sent_distance <= p.lookahead_distance:
+            return None  # sent from within the band: looking ahead would skip it at once
+        r, c = view.cell_of(*self._pursuit.target.goal)
+        d = float(fs.distances[r, c]) if view.inside(r, c) else math.inf
+        if min(d, current.distance) > p.lookahead_distance:
+            return None
+        if self._pursuit.sent_gain > 0.0 and view.inside(r, c):
+            # move on only once most of what the goal was chosen for has been seen: a
+            # frontier left half seen is pursued again later, from the far side
+            left = float(visible_unknown(view, np.array([r]), np.array([c]),
+                                         p.sensor_range)[0]) * view.resolution ** 2
+            if left > p.lookahead_gain_fraction * self._pursuit.sent_gain:
+                return None
         others = [t for t in ranked if t.frontier.label != current.frontier.label]
-        if not others or self._pursuit is None:
+        if not others:
             return None
         self._arrivals.append(_Arrival(self._pursuit.points, self._pursuit.target.goal, now))
         self._pursuit = None
@@ -234,7 +271,8 @@ class FrontierExplorer:
     def _start(self, target: Target, view: GridView, robot: tuple[float, float, float],
                now: float) -> None:
         self._pursuit = _Pursuit(target, target.frontier.points(view), now, target.distance,
-                                 now, (robot[0], robot[1]), now)
+                                 now, (robot[0], robot[1]), now, target.distance,
+                                 target.gain)
         self.stats.goals_sent += 1
 
     def _watch(self, view: GridView, fs: FrontierSet, robot: tuple[float, float, float],

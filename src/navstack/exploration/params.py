@@ -85,10 +85,21 @@ class ExploreParams(Params):
     """Range [m] of the gain raycast (the lidar's usable range)."""
     viewpoint_spacing: float = Field(0.5, gt=0.0)
     """Candidate viewpoints along a frontier, one per this many metres."""
+    turn_distance: float = Field(0.26, ge=0.0)
+    """Information gain: a viewpoint's path distance is lengthened by this many metres
+    per radian the robot must turn to head for it -- the distance it would have driven
+    in that time (TurtleBot3: RPP drives 0.26 m/s and turns in place at 1.0 rad/s).
+    Next targets ahead of the robot win over equal ones behind it."""
+    path_gain: bool = True
+    """Information gain: a target's gain is the unknown area visible from its path (one
+    point per ``viewpoint_spacing``) and goal, not from the goal alone."""
     retarget_hysteresis: float = Field(0.25, ge=0.0)
     """The current target is kept unless another scores this fraction better."""
-    lookahead_distance: float = Field(0.8, ge=0.0)
+    lookahead_distance: float = Field(1.0, ge=0.0)
     """Information gain: once the robot is this close [m, path] to its goal, the next
     target is sent -- the robot moves on instead of slowing to a stop at every viewpoint
     (the controller slows down near a goal); the target it leaves is judged like a
     reached one.  0 turns the look-ahead off."""
+    lookahead_gain_fraction: float = Field(0.5, ge=0.0, le=1.0)
+    """... but only once the unknown area still visible from the goal is at most this
+    fraction of what it was when the goal was chosen (1: distance alone)."""

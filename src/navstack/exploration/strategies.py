@@ -11,9 +11,13 @@
 * :class:`InformationGainUtility` -- the navstack default: every frontier offers
   viewpoints (its approach cells, one per ``viewpoint_spacing``); a viewpoint's utility
   is the unknown area a lidar there would see (:mod:`.gain`) discounted by its path
-  distance, ``gain * exp(-distance_decay * distance)`` (González-Baños & Latombe 2002).
-  A large far frontier no longer beats a small near one, which is what sends
-  explore_lite back and forth across a building.
+  distance, ``gain * exp(-distance_decay * (distance + turn_distance * turn))``
+  (González-Baños & Latombe 2002), ``turn`` the heading change to face it.  A large far
+  frontier no longer beats a small near one, which is what sends explore_lite back and
+  forth across a building.  With ``path_gain`` the best viewpoint of each frontier is
+  then scored on the unknown area visible from its path as well (one point per
+  ``viewpoint_spacing`` along the wavefront's shortest path, each cell counted once): a
+  target whose way passes the view of another frontier is worth both.
 
 * :class:`NearestFrontier` -- Yamauchi's greedy nearest frontier (the benchmark's
   reference).
@@ -32,7 +36,7 @@ import numpy as np
 
 from navstack.core.geometry import normalize_angle
 from navstack.exploration.frontiers import Frontier, FrontierSet
-from navstack.exploration.gain import visible_unknown
+from navstack.exploration.gain import path_cells, visible_unknown, visible_unknown_along
 from navstack.exploration.grid_view import GridView
 from navstack.exploration.params import ExploreParams
 
@@ -153,13 +157,28 @@ class InformationGainUtility(ExplorationStrategy):
         who = np.concatenate(owner)
         gain = visible_unknown(view, r, c, p.sensor_range) * view.resolution ** 2
         dist = frontiers.distances[r, c]
-        utility = gain * np.exp(-p.distance_decay * dist)
+        pts = view.centres(r, c)
+        # the turn to head for it [rad], as metres the robot would have driven meanwhile
+        bearing = np.arctan2(pts[:, 1] - robot[1], pts[:, 0] - robot[0]) - robot[2]
+        turn = np.abs(np.remainder(bearing + math.pi, 2.0 * math.pi) - math.pi)
+        turn[np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1]) < 1e-9] = 0.0
+        discount = np.exp(-p.distance_decay * (dist + p.turn_distance * turn))
+        utility = gain * discount
         best: dict[int, int] = {}
         for k in np.argsort(-utility, kind="stable"):
             best.setdefault(int(who[k]), int(k))
-        pts = view.centres(r, c)
+        score = {k: float(utility[k]) for k in best.values()}
+        if p.path_gain and best:
+            # what the robot sees on the way counts too: a target whose path passes
+            # another frontier's view is worth that frontier as well
+            every = max(1, round(p.viewpoint_spacing / view.resolution))
+            ks = list(best.values())
+            paths = [path_cells(frontiers.distances, int(r[k]), int(c[k]), every) for k in ks]
+            seen = visible_unknown_along(view, paths, p.sensor_range,
+                                         seen_from=frontiers.start) * view.resolution ** 2
+            score = {k: float(seen[j] * discount[k]) for j, k in enumerate(ks)}
         out = [Target(frontiers.reachable[i], (float(pts[k, 0]), float(pts[k, 1])),
-                      float(dist[k]), float(utility[k]), float(gain[k]))
+                      float(dist[k]), score[k], float(gain[k]))
                for i, k in best.items()]
         out.sort(key=lambda t: -t.score)
         return out

@@ -134,6 +134,7 @@ class _Process:
         return {"name": self.transport.name, "link": self.link.health(),
                 "latency_s": _latency(self.link), "lockstep": self.lockstep is not None,
                 "late_deliveries": self.runtime.scheduler.late_posts,
+                "link_send": self.link.send_stats(),
                 "clock_rate": self.transport.clock.rate}
 
     def close(self) -> None:
@@ -185,10 +186,12 @@ class RobotProcess(_Process):
         return {"role": "robot", **self.common_report(),
                 "collisions": n.collisions,
                 "trajectory": n.rows, "cmd_vel": n.cmd_log,
-                "scan_to_cmd_s": n.latency.samples,
+                **n.latency.report(),
                 "watchdog": {"stops": n.watchdog.stops, "resumes": n.watchdog.resumes,
                              "blocked": n.watchdog.blocked},
                 "opened_at": self.link.opened_at,
+                "link_loop_work": {"seconds": self.link.loop_work_s,
+                                   "messages": self.link.loop_work_messages},
                 "clock_offset_configured_s": self.transport.clock.offset,
                 "base_offset_s": self.link.offset(self.peer),
                 "loop_lateness_s": _percentiles(list(self.runtime.scheduler.lateness or ()))}

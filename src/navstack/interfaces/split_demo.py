@@ -109,10 +109,9 @@ def score(robot: dict[str, Any], base: dict[str, Any], reference: np.ndarray | N
         "collisions": robot["collisions"],
         "scan_to_base_latency_p50_ms": 1e3 * scan.get("p50", float("nan")),
         "scan_to_base_latency_p99_ms": 1e3 * scan.get("p99", float("nan")),
-        "scan_to_cmd_vel_p50_ms": _pct_ms(robot.get("scan_to_cmd_s", []), 50,
-                                          robot.get("clock_rate", 1.0)),
-        "scan_to_cmd_vel_p99_ms": _pct_ms(robot.get("scan_to_cmd_s", []), 99,
-                                          robot.get("clock_rate", 1.0)),
+        **{f"scan_to_cmd_vel_p{q}_ms": _pct_ms(robot.get("scan_to_cmd_s", []), q,
+                                               robot.get("clock_rate", 1.0))
+           for q in (50, 95, 99)},
         "robot_loop_lateness_p99_ms": 1e3 * robot["loop_lateness_s"].get("p99", float("nan")),
         "goal_round_trip_p99_ms": 1e3 * base["goal_round_trip_s"].get("p99", float("nan")),
         "offset_configured_s": offset,

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from navstack.core.msgs import Header, LaserScan, PoseStamped, Twist
+from navstack.core.msgs import Header, PoseStamped, Twist
 from navstack.costmap.costmap_2d import LETHAL_OBSTACLE
 from navstack.costmap.footprint import footprint_cost
 from navstack.interfaces.stack import NavStack
@@ -50,22 +50,59 @@ MISSION_START_S = 1.0
 
 @dataclass
 class ScanToCmd:
-    """Scan -> ``/cmd_vel`` latency on one runtime: at every ``/cmd_vel``, the clock's
-    reading (real time on a wall clock) minus the stamp of the newest ``/scan`` published
-    before it, in process seconds (divide by the clock rate for real seconds)."""
+    """Scan -> ``/cmd_vel`` latency on one runtime, per command, following the data.
+
+    Every ``/cmd_vel`` that forwards a command the controller computed is traced back
+    through the chain (twist_mux / link watchdog -> collision monitor -> velocity
+    smoother -> controller cycle -> local costmap update) to the newest scan the local
+    costmap had marked when the controller ran; its latency is the clock's reading at
+    the ``/cmd_vel`` (real time on a wall clock) minus that scan's stamp, in process
+    seconds (divide by the clock rate for real seconds).  Split into ``scheduled``
+    (the command's scheduled time minus the stamp: the phases of the scan, costmap,
+    controller and smoother timers, the same in every run of the stack) and ``late``
+    (how long after its scheduled time the loop got to the command).  One sample per
+    controller command, at the first ``/cmd_vel`` that carries it; commands not computed
+    from a scan (behaviors, the smoother's repeats, watchdog or mux zeros) are not
+    counted."""
 
     runtime: Runtime
+    costmap: CostmapNode
+    controller: ControllerServer
+    controller_topic: str = "/cmd_vel_nav"
+    smoothed_topic: str = "/cmd_vel_smoothed"
     samples: list[float] = field(default_factory=list)
-    _scan_stamp: float | None = None
+    scheduled: list[float] = field(default_factory=list)
+    late: list[float] = field(default_factory=list)
+    _cycles: int = 0
+    _from_controller: float | None = None
+    _pending: float | None = None
 
     def __post_init__(self) -> None:
         self.runtime.bus.add_tap(self._tap)
 
     def _tap(self, topic: str, msg: Any, now: float) -> None:
-        if topic == "/scan" and isinstance(msg, LaserScan):
-            self._scan_stamp = msg.header.stamp
-        elif topic == "/cmd_vel" and self._scan_stamp is not None:
-            self.samples.append(self.runtime.scheduler.clock() - self._scan_stamp)
+        if topic == self.controller_topic:
+            # the controller's cycle publishes at most once; anything else (a behavior,
+            # a cancel's stop) was not computed from the costmap
+            cycles = self.controller.cycles
+            fresh = cycles != self._cycles
+            self._cycles = cycles
+            self._from_controller = self.costmap.newest_observation if fresh else None
+        elif topic == self.smoothed_topic:
+            # the first smoothed output carrying a controller command; the smoother's
+            # repeats of it (ramping, holding) are not new scan -> command results
+            self._pending, self._from_controller = self._from_controller, None
+        elif topic == "/cmd_vel" and self._pending is not None:
+            stamp, self._pending = self._pending, None
+            clock = self.runtime.scheduler.clock()
+            self.samples.append(clock - stamp)
+            self.scheduled.append(now - stamp)
+            self.late.append(clock - now)
+
+    def report(self) -> dict[str, list[float]]:
+        """The per-command figures for a run's JSON report (process seconds)."""
+        return {"scan_to_cmd_s": self.samples, "scan_to_cmd_scheduled_s": self.scheduled,
+                "scan_to_cmd_late_s": self.late}
 
 
 @dataclass
@@ -98,7 +135,9 @@ class RobotNodes:
         self.watchdog = LinkWatchdog(rt, self.link_up)
         rt.bus.subscribe("/cmd_vel", Twist, lambda c: self.cmd_log.append(
             (rt.now, c.linear.x, c.angular.z)), QoS(depth=100))
-        self.latency = ScanToCmd(rt)
+        self.latency = ScanToCmd(rt, self.local_costmap, self.controller,
+                                 self.controller.params.cmd_vel_topic,
+                                 self.smoother.params.cmd_vel_out_topic)
 
     def start_sampling(self) -> None:
         self.runtime.scheduler.create_timer(0.1, self._sample, first_at=self.runtime.now)
@@ -202,7 +241,7 @@ def run_in_process(stack_file: str | FsPath, waypoints_file: str | FsPath, *,
     goals = drive_mission(rt, waypoints, goal_timeout_s, "in-process", echo)
     return {"role": "in_process", "trajectory": robot.rows, "goals": goals,
             "succeeded": succeeded(goals), "collisions": robot.collisions,
-            "scan_to_cmd_s": robot.latency.samples, "rate": wall_rate or 1.0}
+            **robot.latency.report(), "rate": wall_rate or 1.0}
 
 
 def trajectory_array(rows: list[Any]) -> np.ndarray:

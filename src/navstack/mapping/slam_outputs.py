@@ -51,13 +51,15 @@ def metrics(result: OfflineResult) -> dict[str, float]:
     reference); ``ms_per_scan`` (median over nodes), ``ms_first_10`` / ``ms_last_10``
     (mean over the first / last tenth of the scans) and their ``ms_growth`` ratio,
     ``speedup`` (only with a log duration), ``scans``, ``nodes``, ``loop_closures``,
-    ``odometry_events`` and ``recovered_scans``."""
+    ``odometry_events``, ``recovered_scans`` and ``ambiguous_scans`` (scans without
+    odometry over their step placed although the wide search was ambiguous)."""
     stats = result.mapper.stats
     out: dict[str, float] = {"scans": float(result.scans),
                              "nodes": float(len(result.mapper.nodes)),
                              "loop_closures": float(stats.loop_closures),
                              "odometry_events": float(len(stats.odometry_events)),
-                             "recovered_scans": float(len(stats.recovered_scans))}
+                             "recovered_scans": float(len(stats.recovered_scans)),
+                             "ambiguous_scans": float(len(stats.ambiguous_scans))}
     if result.rpe is not None:
         out.update(trans_err_m=result.rpe.trans_mean_m, trans_err_std_m=result.rpe.trans_std_m,
                    rot_err_deg=result.rpe.rot_mean_deg, rot_err_std_deg=result.rpe.rot_std_deg)
@@ -113,6 +115,8 @@ def summary(result: OfflineResult, files: Mapping[str, str] | None = None) -> di
             "wide_searches": stats.wide_searches,
             "recovered_scans": stats.recovered_scans[:EVENTS_SHOWN],
             "recovered": len(stats.recovered_scans),
+            "ambiguous_scans": stats.ambiguous_scans[:EVENTS_SHOWN],
+            "ambiguous": len(stats.ambiguous_scans),
             "unlinked_nodes": stats.unlinked_nodes,
             "odometry_edges": stats.odometry_edges,
         },

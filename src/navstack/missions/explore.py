@@ -18,7 +18,12 @@ the controller judges its arcs on -- is closer than the robot's turning radius
 after a goal it gave up (stuck) or the navigator aborted, before the next goal: a robot
 wedged at a box corner -- its padded footprint on a lethal cell, so the controller
 refuses to move and the spin recovery cannot turn it -- otherwise stays there.  The
-mission escapes once more before returning home.
+mission escapes once more before returning home.  When both straight moves were
+refused (obstacles ahead and behind: a turn in place that ended between two), the
+escape turns ``spin_angle`` away from the nearest obstacle -- the behaviour server
+refuses a turn that would hit anything -- and tries straight moves again; the next
+turn goes the other way.  A goal whose frontier was observed on the way is replaced in
+place, without stopping or escaping (explore_lite's ``makePlan`` does the same).
 
 :func:`explore_mission` is explore_lite's node: wait for the map, remember the start
 pose, escape, explore, and with ``return_to_init`` return to the start pose -- a checked
@@ -148,11 +153,15 @@ class Explore(MissionBehaviour):
         self.decision = decision
         if decision.cancelled:
             ctx.log(f"{self.name}: gave up the goal: {decision.cancelled}")
-            self._cancel_goal()
-            if decision.kind is not DecisionKind.DONE:
+            if decision.blacklisted or decision.kind is not DecisionKind.SEND:
+                self._cancel_goal()
+            if decision.blacklisted and decision.kind is not DecisionKind.DONE:
+                # stuck or no progress: get clear before the next goal
                 self._pending = decision if decision.kind is DecisionKind.SEND else None
                 self._begin_escape()
                 return Status.RUNNING
+            # its frontier was observed: the next goal preempts the running one in place
+            # (explore_lite's makePlan sends it without stopping the robot)
         if p.visualize and decision.frontiers is not None:
             self._publish_markers(decision, view)
         if decision.kind is DecisionKind.DONE:
@@ -280,9 +289,10 @@ class Escape(MissionBehaviour):
     """Back away from an obstacle closer than the turning radius (module docstring)."""
 
     def __init__(self, ctx: MissionContext, circumscribed_radius: float = 0.3,
-                 map_topic: str = "/map", margin: float = 0.05, attempts: int = 3,
+                 map_topic: str = "/map", margin: float = 0.05, attempts: int = 5,
                  name: str = "Escape", max_move: float = 1.0, required: bool = True,
-                 local_costmap_topic: str | None = "/local_costmap/costmap") -> None:
+                 local_costmap_topic: str | None = "/local_costmap/costmap",
+                 spin_angle: float = 0.5) -> None:
         super().__init__(ctx, name)
         self.radius = circumscribed_radius
         self.map_topic = map_topic
@@ -301,6 +311,9 @@ class Escape(MissionBehaviour):
         self.flip_refused_forward = False
         self.max_move = max_move
         self.required = required  # False: a robot that cannot get clear is logged, not failed
+        self.refused_ways: set[str] = set()  # straight moves refused since the last motion
+        self.spin_sign = 0.0  # the turn of the last spin tried (0: none yet)
+        self.spin_angle = spin_angle
 
     def initialise(self) -> None:
         self.handle = None
@@ -309,6 +322,8 @@ class Escape(MissionBehaviour):
         self.flip = False
         self.refused = None
         self.flip_refused_forward = False
+        self.refused_ways = set()
+        self.spin_sign = 0.0
 
     def _nearest_obstacle(self, grid: OccupancyGrid, pose: Pose2D,
                           threshold: int = 65) -> tuple[float, float]:
@@ -405,11 +420,17 @@ class Escape(MissionBehaviour):
             if h.result is not None and h.result.status is not GoalStatus.SUCCEEDED:
                 ctx.log(f"{self.name}: {h.action} ended {h.result.status.value}: "
                         f"{h.result.error_msg}")
-                self.flip = not self.flip  # that way is blocked: the other way next
-                self.refused = h.action
-                self.flip_refused_forward = h.action.endswith("drive_on_heading")
+                if h.action.endswith("spin"):
+                    self.spin_sign = -self.spin_sign  # the other turn next
+                    self.refused_ways.add(h.action)
+                else:
+                    self.flip = not self.flip  # that way is blocked: the other way next
+                    self.refused = h.action
+                    self.flip_refused_forward = h.action.endswith("drive_on_heading")
+                    self.refused_ways.add("forward" if self.flip_refused_forward else "back")
             else:
                 self.refused = None  # it moved: both ways are open again
+                self.refused_ways = set()
         grid = ctx.latest(self.map_topic, OccupancyGrid, LATCHED)
         pose = ctx.robot_pose()
         if grid is None or pose is None:
@@ -430,6 +451,22 @@ class Escape(MissionBehaviour):
                 return Status.SUCCESS
             return self.failed(reason)
         self.tries += 1
+        if {"forward", "back"} <= self.refused_ways:
+            # wedged: obstacles ahead and behind (a turn in place ended between two
+            # obstacles, office).  Turn away from the nearest one -- the behaviour server
+            # refuses a turn that would hit anything -- and try straight moves after it
+            if self.spin_sign == 0.0:
+                self.spin_sign = -1.0 if bearing > 0.0 else 1.0
+            angle = self.spin_sign * self.spin_angle
+            self.refused_ways.discard("forward")
+            self.refused_ways.discard("back")
+            self.refused = None
+            ctx.log(f"{self.name}: obstacle {dist:.2f} m away at bearing "
+                    f"{math.degrees(bearing):.0f} deg and both straight moves refused: "
+                    f"turning {math.degrees(angle):.0f} deg")
+            ctx.feedback(f"{self.name}: turning {math.degrees(angle):.0f} deg")
+            self.handle = ctx.spin.send_goal(m.SpinGoal(angle, 10.0))
+            return Status.RUNNING
         forward, distance = self._choose_move(grid, pose, dist, bearing, local)
         if not forward:
             goal: Any = m.BackUpGoal(distance, 0.1, 10.0)

@@ -274,7 +274,7 @@ class ProgressGuard(py_trees.decorators.Decorator):
     def _stall_reason(self) -> str | None:
         now = self.ctx.clock()
         path, pose = self.board.get(self.ctx.path_key), self.ctx.robot_pose()
-        if isinstance(path, Path) and path.poses and pose is not None:
+        if isinstance(path, Path) and path.num_poses and pose is not None:
             d = distance_remaining(self._cache.xy(path), pose.x, pose.y)
             if self._ref is None:
                 self._ref, self._last, self._t_ref, self._path = d, d, now, path

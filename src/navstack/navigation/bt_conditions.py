@@ -62,7 +62,7 @@ class IsPathValid(Behaviour):
 
     def update(self) -> Status:
         path = self.board.get(self.ctx.path_key)
-        if not isinstance(path, Path) or not path.poses:
+        if not isinstance(path, Path) or not path.num_poses:
             return Status.FAILURE
         if self.service_name not in self.ctx.bus.services:
             if not self._warned:

@@ -343,7 +343,7 @@ class ComputePathToPose(ActionNode):
 
     def leg_path(self, result: ActionResult) -> Path | None:
         path = _result_path(result.result)
-        return path if path is not None and path.poses else None
+        return path if path is not None and path.num_poses else None
 
     def on_succeeded(self, result: ActionResult) -> Status:
         path = self.leg_path(result)
@@ -426,14 +426,14 @@ class FollowPath(ActionNode):
 
     def make_goal(self) -> Any:
         path = self.board.get(self.ctx.path_key)
-        if not isinstance(path, Path) or not path.poses:
+        if not isinstance(path, Path) or not path.num_poses:
             raise NodeInputError(int(m.ControllerErrorCode.INVALID_PATH),
                                  f"no path to follow on the blackboard key '{self.ctx.path_key}'")
         return self._goal(path)
 
     def on_running(self) -> None:
         path = self.board.get(self.ctx.path_key)
-        if isinstance(path, Path) and path.poses and path is not self._sent_path:
+        if isinstance(path, Path) and path.num_poses and path is not self._sent_path:
             old = self._handle
             self.send(self._goal(path))
             if old is not None and not old.done:

@@ -153,7 +153,7 @@ class ControllerServer(Node):
     # --- goals --------------------------------------------------------------------------
     def _on_goal(self, handle: GoalHandle[FollowPathGoal]) -> bool | str:
         goal = handle.goal
-        if not goal.path.poses:
+        if not goal.path.num_poses:
             return "FollowPath needs a non-empty path"
         cid = goal.controller_id or next(iter(self.controllers))
         if cid not in self.controllers:

@@ -185,7 +185,7 @@ class CostmapFilterFeed:
         if speeds:
             layer.set_robot_speed(sum(v for _, v in speeds) / len(speeds))
         path = state.path
-        if path is None or not path.poses:
+        if path is None or not path.num_poses:
             if layer.path_xy is not None:
                 layer.set_path(None)
             return

@@ -69,6 +69,8 @@ class CostmapNode(Node):
         self.publish_period = 1.0 / p.publish_frequency if p.publish_frequency > 0 else 0.0
         self.map_topic = "/" + p.map_topic.lstrip("/")
         self.updates = 0
+        #: stamp of the newest sensor observation the last update marked (``None``: none)
+        self.newest_observation: float | None = None
         self.tf_failures = 0
         self.last_tf_error = ""
         # Nav2's obstacle layer puts a tf2 MessageFilter (tf_filter_tolerance) in front of
@@ -225,6 +227,10 @@ class CostmapNode(Node):
         self.layered.update_map(pose.x, pose.y, pose.theta, self.now)
         self.filter_feed.after_update()
         self.updates += 1
+        stamps = [s for layer in self.layered.layers if isinstance(layer, ObstacleLayer)
+                  for b in layer.buffers.values() if (s := b.newest_stamp) is not None]
+        if stamps:
+            self.newest_observation = max(stamps)
 
     def publish(self) -> None:
         if self.layered.initialized:

@@ -257,34 +257,51 @@ def grid_polygon_clearance(occ: NDArray[np.bool_], origin_x: float, origin_y: fl
                            resolution: float, poly: FloatArray, max_dist: float) -> float:
     """Exact distance [m] from the polygon to the nearest occupied cell square, capped at
     ``max_dist``, for a polygon that touches no occupied cell (test that first with
-    :func:`polygon_hits_grid`).  Only cells in the polygon's bounding box grown by
-    ``max_dist`` are examined."""
+    :func:`polygon_hits_grid`).  Cells in the polygon's bounding box grown by
+    ``max_dist`` are visited outwards from the box's centre, row by row and each row
+    from the centre column out, and a direction stops at the first cell whose gap to
+    the bounding box is already no nearer than the best distance so far (the gap only
+    grows further out): the same minimum as visiting them all, a few rows instead of
+    ``(2 max_dist / resolution)^2`` cells."""
     h, w = occ.shape
     x0 = math.floor((poly[:, 0].min() - max_dist - origin_x) / resolution)
     x1 = math.floor((poly[:, 0].max() + max_dist - origin_x) / resolution)
     y0 = math.floor((poly[:, 1].min() - max_dist - origin_y) / resolution)
     y1 = math.floor((poly[:, 1].max() + max_dist - origin_y) / resolution)
-    square = np.empty((4, 2))
+    r_lo, r_hi = max(y0, 0), min(y1, h - 1)
+    c_lo, c_hi = max(x0, 0), min(x1, w - 1)
     best = max_dist
+    if r_lo > r_hi or c_lo > c_hi:
+        return best
+    square = np.empty((4, 2))
     px0, px1 = poly[:, 0].min(), poly[:, 0].max()
     py0, py1 = poly[:, 1].min(), poly[:, 1].max()
-    for r in range(max(y0, 0), min(y1, h - 1) + 1):
-        for c in range(max(x0, 0), min(x1, w - 1) + 1):
-            if not occ[r, c]:
-                continue
-            bx0 = origin_x + c * resolution
+    r_mid = min(max(math.floor((0.5 * (py0 + py1) - origin_y) / resolution), r_lo), r_hi)
+    c_mid = min(max(math.floor((0.5 * (px0 + px1) - origin_x) / resolution), c_lo), c_hi)
+    for r_step in (1, -1):
+        r = r_mid if r_step == 1 else r_mid - 1
+        while r_lo <= r <= r_hi:
             by0 = origin_y + r * resolution
-            # the gap between the polygon's bounding box and the square bounds the
+            # the gap between the polygon's bounding box and a square bounds the
             # distance from below: a square that far cannot be the nearest
-            gx = max(bx0 - px1, px0 - (bx0 + resolution), 0.0)
             gy = max(by0 - py1, py0 - (by0 + resolution), 0.0)
-            if gx * gx + gy * gy >= best * best:
-                continue
-            square[0, 0], square[0, 1] = bx0, by0
-            square[1, 0], square[1, 1] = bx0 + resolution, by0
-            square[2, 0], square[2, 1] = bx0 + resolution, by0 + resolution
-            square[3, 0], square[3, 1] = bx0, by0 + resolution
-            best = min(best, _polygons_distance(poly, square))
+            if gy * gy >= best * best:
+                break
+            for c_step in (1, -1):
+                c = c_mid if c_step == 1 else c_mid - 1
+                while c_lo <= c <= c_hi:
+                    bx0 = origin_x + c * resolution
+                    gx = max(bx0 - px1, px0 - (bx0 + resolution), 0.0)
+                    if gx * gx + gy * gy >= best * best:
+                        break
+                    if occ[r, c]:
+                        square[0, 0], square[0, 1] = bx0, by0
+                        square[1, 0], square[1, 1] = bx0 + resolution, by0
+                        square[2, 0], square[2, 1] = bx0 + resolution, by0 + resolution
+                        square[3, 0], square[3, 1] = bx0, by0 + resolution
+                        best = min(best, _polygons_distance(poly, square))
+                    c += c_step
+            r += r_step
     return best
 
 

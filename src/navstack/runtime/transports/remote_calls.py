@@ -124,7 +124,7 @@ def serve_action(link: ZenohLink, name: str, peer: str, timeout: float = 2.0) ->
 
     def put(suffix: str, payload: bytes, mark: bytes | None = None) -> None:
         if link.passes():
-            link.session.put(f"{base}/{suffix}", payload, attachment=mark)
+            link.put(f"{base}/{suffix}", payload, attachment=mark)
 
     def submit(gid: str, goal: Any) -> ActionResult | None:
         def on_feedback(fb: Any) -> None:
@@ -239,7 +239,7 @@ class ActionProxy:
     def _on_cancel(self, handle: GoalHandle[Any]) -> None:
         for gid, h in list(self.handles.items()):  # results pop from Zenoh's threads
             if h is handle:
-                self.link.session.put(f"{self.base}/cancel", gid.encode(),
+                self.link.put(f"{self.base}/cancel", gid.encode(),
                                       attachment=self.link.mark())
 
     def _decode(self, sample: zenoh.Sample) -> Any:
@@ -273,7 +273,7 @@ class ActionProxy:
         gid = msg["gid"]
         if not gid.startswith(link.params.name + "-"):
             return  # another client's goal on the same server
-        link.session.put(f"{self.base}/ack", gid.encode(), attachment=link.mark())
+        link.put(f"{self.base}/ack", gid.encode(), attachment=link.mark())
         handle = self.handles.pop(gid, None)
         if handle is not None:
             result = link.compensate(msg["result"], self.peer)
