@@ -209,3 +209,27 @@ def test_loop_closure_from_a_partial_view_is_dropped_below_the_response_ratio(
         assert mapper.stats.loop_weak == 0
     else:
         assert closure is None and mapper.stats.loop_weak == 1
+
+
+def test_scans_without_returns_never_crash_the_mapper(office) -> None:
+    """An open space beyond the lidar's range (a 3.5 m lidar in a warehouse aisle):
+    nodes whose scans hold no point leave nothing to match against.  The next scans --
+    with odometry, without it, after a gap -- are placed by odometry or the motion
+    guess, and the scans that see walls again are matched to each other (issue 16's warehouse
+    exploration crashed with 'zero-size array to reduction operation minimum')."""
+    mapper = SlamMapper(SlamParams(minimum_time_interval=0.0, map_start_pose=[1.0, 7.5, 0.0]),
+                        LASER)
+    empty = np.full(ANGLES.shape, np.inf)
+    for k in range(3):
+        assert mapper.process_scan(empty, (0.5 * k, 0.0, 0.0), float(k))
+    mapper.process_scan(empty, None, 3.0, odom_gap=True)
+    mapper.process_scan(empty, (2.0, 0.0, 0.0), 4.0, odom_gap=True)
+    mapper.process_scan(_ranges(office, (3.5, 7.5, 0.0)), (2.5, 0.0, 0.0), 5.0)
+    mapper.process_scan(_ranges(office, (4.0, 7.5, 0.0)), (3.0, 0.0, 0.0), 6.0)
+    poses = mapper.poses()
+    assert mapper.stats.scans_received == 7 and len(poses) == 7
+    assert np.isfinite(poses).all()
+    # a gap seen by no return cannot be measured: the motion guess places it, and the
+    # scans after it keep their odometry step, the last one matched to the one before
+    assert np.diff(poses[-3:, 0]) == pytest.approx([0.5, 0.5], abs=0.02)
+    assert np.abs(poses[:, 1] - 7.5).max() < 0.02

@@ -84,6 +84,8 @@ def _link(mapper: SlamMapper, points: FloatArray, guess: FloatArray, radius: flo
     if not ids or points.shape[0] < 10:
         return None, False
     ref, normals, line_like = mapper._world_features(ids)
+    if ref.shape[0] == 0:  # the nodes around saw nothing in range: nothing to search
+        return None, False
     half, half_angle = radius, math.pi
     found = _search(mapper, ref, points, guess, half, half_angle, predicted)
     if found is None:

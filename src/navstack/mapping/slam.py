@@ -169,7 +169,7 @@ class SlamMapper:
         self._map_to_odom = np.zeros(3)
         self._world_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
         self._local_cache: tuple[Any, tuple[FloatArray, FloatArray, NDArray[np.bool_],
-                                            LikelihoodGrid]] | None = None
+                                            LikelihoodGrid | None]] | None = None
         self._poses = np.zeros((0, 3))
         self._covs = np.zeros((0, 3, 3))
         self.frozen_nodes = 0  # nodes loaded for localization: matched against, never moved
@@ -513,15 +513,22 @@ class SlamMapper:
                            covariance=cov)
 
     def _local_map(self, ids: Sequence[int]) -> tuple[FloatArray, FloatArray,
-                                                      NDArray[np.bool_], LikelihoodGrid]:
+                                                      NDArray[np.bool_],
+                                                      LikelihoodGrid | None]:
         """Points, normals, line mask and likelihood grid of nodes ``ids`` at their
         current poses, the grid covering all of them; the last one is kept, so the scans
-        between two nodes (and the next node's link) reuse it."""
+        between two nodes (and the next node's link) reuse it.  No grid when the nodes
+        hold no point (open space beyond the lidar's range): nothing to match against,
+        and :meth:`match_points` says so."""
         key = (tuple(ids), self._poses[list(ids)].tobytes())
         if self._local_cache is not None and self._local_cache[0] == key:
             return self._local_cache[1]
         p = self.params
         ref, nrm, msk = self._world_features(ids)
+        if ref.shape[0] == 0:
+            empty = (ref, nrm, msk, None)
+            self._local_cache = (key, empty)
+            return empty
         res = p.correlation_search_space_resolution
         reach = 3.0 * p.correlation_search_space_smear_deviation + 5 * res
         lo = ref.min(axis=0) - reach
@@ -654,7 +661,8 @@ class SlamMapper:
                 # 'see through' the walls it is to be matched to
                 keep = self._static_mask(ref, node.ranges, guess, se2_between(
                     self._poses[prev_id], guess))
-                if keep is not None and not keep.all() and keep.mean() >= 0.9:
+                if (keep is not None and local is not None and not keep.all()
+                        and keep.mean() >= 0.9):
                     ref, nrm, msk = ref[keep], nrm[keep], msk[keep]
                     grid = self._same_lattice(local, ref)
             points = node.points if restarting or missing else self._covered(
