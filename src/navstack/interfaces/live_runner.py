@@ -72,6 +72,8 @@ class LiveRunner:
         self.stack = stack.start()  # idempotent: a stack built but not started runs here
         self.estop = EStopGate(stack.runtime)
         self.now = stack.now
+        #: held while the simulation thread publishes :attr:`now` (see :meth:`estop_request`)
+        self._clock_lock = threading.Lock()
         self.steps = 0
         self.overruns = 0
         self.observer_errors = 0
@@ -117,7 +119,8 @@ class LiveRunner:
         if self._stop.is_set():
             return
         self._drain()
-        self.now = self.stack.now
+        with self._clock_lock:
+            self.now = self.stack.now
         self.steps += 1
         self._pace.append((time.monotonic(), self.now))
         self._notify()
@@ -218,9 +221,20 @@ class LiveRunner:
         """Latch the shared e-stop from any thread (urgent: ahead of queued commands);
         the future's result is the simulated latch time.  Every operator interface
         (web API and page, phone, Telegram) stops the robot through this one call."""
-        requested_at = self.now
-        return self.submit(lambda _s: self.estop.latch(reason, source, requested_at),
-                           urgent=True)
+        return self.estop_request(source, reason)[1]
+
+    def estop_request(self, source: str, reason: str = "") -> tuple[float, Future[float]]:
+        """:meth:`request_estop`, with the simulated time the request was queued at.
+
+        Read and queued under the lock the simulation thread publishes its time
+        with, so the latch comes at most one step later whatever the caller's thread
+        does meanwhile (a server thread preempted between reading the time and
+        queueing once reported a latch two steps after the request)."""
+        with self._clock_lock:
+            requested_at = self.now
+            fut = self.submit(lambda _s: self.estop.latch(reason, source, requested_at),
+                              urgent=True)
+        return requested_at, fut
 
     def _next(self) -> tuple[Callable[[NavStack], Any], Future[Any]] | None:
         for q in (self._urgent, self._commands):
@@ -259,7 +273,8 @@ class LiveRunner:
             while not self._stop.is_set():
                 self._drain()
                 stack.run_for(p.step)
-                self.now = stack.now
+                with self._clock_lock:
+                    self.now = stack.now
                 self.steps += 1
                 self._pace.append((time.monotonic(), self.now))
                 self._notify()

@@ -165,10 +165,9 @@ class Executor:
             return 422, {"error": f"invalid '{name}' command: {_problems(exc)}"}
         if name == "estop":
             reason = getattr(body, "reason", "") or f"{source} e-stop"
-            requested_at = self.runner.now
-
             async def latch() -> dict[str, Any]:
-                latched_at = await self.wait(self.runner.request_estop(source, reason))
+                requested_at, fut = self.runner.estop_request(source, reason)
+                latched_at = await self.wait(fut)
                 return {"estop": True, "latched_at": latched_at, "requested_at": requested_at}
 
             return await self._mapped(name, latch())
