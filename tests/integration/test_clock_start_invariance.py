@@ -10,19 +10,11 @@ binade (1030 s) -- must drive the identical trajectory and send identical comman
 
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 from navstack.interfaces.split_nodes import run_in_process
 from navstack.runtime.transports.lockstep import SIM_EPOCH
-
-STACK = Path(str(resources.files("navstack") / "config" / "split_office.yaml"))
-ONE_GOAL = """\
-waypoints:
-  - name: Goal_1
-    position: {x: 2.5, y: 4.0, z: 0.0}
-order: [Goal_1]
-"""
+from tests.integration.split_mission import ONE_GOAL, STACK
 
 
 def test_same_mission_from_three_clock_start_values_is_identical(tmp_path: Path) -> None:

@@ -8,18 +8,10 @@ import json
 import os
 import subprocess
 import sys
-from importlib import resources
 from pathlib import Path
 
+from tests.integration.split_mission import ONE_GOAL, STACK
 from tests.runtime.zenoh_helpers import free_port
-
-STACK = Path(str(resources.files("navstack") / "config" / "split_office.yaml"))
-ONE_GOAL = """\
-waypoints:
-  - name: Goal_1
-    position: {x: 2.5, y: 4.0, z: 0.0}
-order: [Goal_1]
-"""
 
 
 def _navstack(*args: str) -> list[str]:

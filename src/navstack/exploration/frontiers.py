@@ -302,12 +302,11 @@ def _roomy_at(view: GridView, rows: IntArray, cols: IntArray, clearance: float) 
     obstacle cell lies within the clearance of it -- the transform's comparison, looked
     up around each cell (on a warehouse map the transform of the frontiers' box was a
     tenth of the exploration's CPU time)."""
+    if rows.size == 0:
+        return np.zeros(0, dtype=bool)
     res = view.resolution
-    threshold = clearance + res / 2
-    offsets = _clearance_offsets(res, threshold)
-    if offsets is None or rows.size == 0:  # ambiguous threshold: the transform decides
-        if rows.size == 0:
-            return np.zeros(0, dtype=bool)
+    offsets = _clearance_offsets(res, clearance + res / 2)
+    if offsets is None:  # ambiguous threshold: the transform decides
         r0, c0 = int(rows.min()), int(cols.min())
         box = (r0, int(rows.max()) + 1, c0, int(cols.max()) + 1)
         return _roomy(view, box, clearance)[rows - r0, cols - c0]
