@@ -96,17 +96,18 @@ def odometry_verdict(params: SlamParams, odom: FloatArray | None, stamp: float, 
 class OdometryNoise:
     """How far to trust an odometry step: the covariance of odometry edges.
 
-    A step of ``d`` metres and ``a`` radians gets standard deviations
-    ``0.02 + k_lin * d`` [m] and ``1 deg + k_ang * (a + 0.2 d)`` [rad].  The factors start
-    at ``odometry_linear_error`` / ``odometry_angular_error`` and follow the odometry's
-    measured quality: every confident scan match is compared with the odometry step it
-    replaces, and the root mean square of those differences (over the last 50 steps),
-    per metre and per radian, raises the factors when the odometry is worse than
-    configured -- the mean square, not a robust spread, because odometry errors are
-    heavy-tailed (a wheel slips now and then) and a slip must not find a tight edge.  A
-    wheel-slipping log thus gets weak odometry edges by itself, a good one keeps them
-    useful where the scans are ambiguous.  Until ten steps were compared the odometry's
-    quality is unknown and the mapper adds no odometry edges.
+    A step of ``d`` metres and ``a`` radians gets standard deviations ``f_lin + k_lin *
+    d`` [m] and ``f_ang + k_ang * (a + 0.2 d)`` [rad], the floors
+    ``odometry_linear_error_floor`` / ``odometry_angular_error_floor`` (0.02 m, 1 deg).
+    The factors start at ``odometry_linear_error`` / ``odometry_angular_error`` and
+    follow the odometry's measured quality: every confident scan match is compared with
+    the odometry step it replaces, and the root mean square of those differences (over
+    the last 50 steps), per metre and per radian, raises the factors when the odometry
+    is worse than configured -- the mean square, not a robust spread, because odometry
+    errors are heavy-tailed (a wheel slips now and then) and a slip must not find a
+    tight edge. A wheel-slipping log thus gets weak odometry edges by itself, a good one
+    keeps them useful where the scans are ambiguous. Until ten steps were compared the
+    odometry's quality is unknown and the mapper adds no odometry edges.
 
     *Scale.*  Wheel odometry is usually mis-scaled (a wheel radius a percent off, a
     gyro's gain): a systematic error the same way at every step, which odometry edges
@@ -130,6 +131,8 @@ class OdometryNoise:
     def __init__(self, params: SlamParams) -> None:
         self.linear = params.odometry_linear_error
         self.angular = params.odometry_angular_error
+        self.linear_floor = params.odometry_linear_error_floor
+        self.angular_floor = params.odometry_angular_error_floor
         self._lin: list[float] = []
         self._ang: list[float] = []
         self._scale_lin: list[tuple[float, float]] = []  # (odometry, matched) [m]
@@ -207,6 +210,6 @@ class OdometryNoise:
         """Covariance of an odometry step (x, y, theta in the step's frame)."""
         k_lin, k_ang = self.factors()
         dist = math.hypot(step[0], step[1])
-        sxy = 0.02 + k_lin * dist
-        sth = math.radians(1.0) + k_ang * (abs(float(step[2])) + 0.2 * dist)
+        sxy = self.linear_floor + k_lin * dist
+        sth = self.angular_floor + k_ang * (abs(float(step[2])) + 0.2 * dist)
         return np.diag([sxy * sxy, sxy * sxy, sth * sth])

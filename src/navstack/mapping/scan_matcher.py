@@ -36,8 +36,8 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "match_scan",
-           "offset_moments", "response_covariance", "smeared_grid",
+__all__ = ["LikelihoodGrid", "MatchResult", "SearchWindow", "ambiguity", "coupled_covariance",
+           "match_scan", "offset_moments", "response_covariance", "smeared_grid",
            "surface_covariance_matrix"]
 
 
@@ -443,6 +443,46 @@ def response_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArra
     scores = _sums_at_rows(grid.fine, rows, cols)
     return surface_covariance_matrix(xy, res, scores, np.asarray(offsets, dtype=np.float64),
                                      drop * local.shape[0])
+
+
+def coupled_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArray,
+                       hessian: FloatArray, unit: FloatArray, ratio: float,
+                       steps: int = 30, drop: float = 0.1) -> FloatArray | None:
+    """Covariance along a *coupled* weak direction of a match, which
+    :func:`response_covariance` cannot see; ``None`` when there is none.
+
+    The response surface is sampled along x and y at the matched angle and along the
+    angle at the matched position, so it misses a direction that mixes both: a scan
+    whose returns are one cluster a few metres away (a rack corner seen across an open
+    hall by a 3.5 m lidar) fits as well turned about that cluster -- rotation plus the
+    translation that keeps the cluster in place -- as at the match.  The Gauss-Newton
+    Hessian ``hessian`` (``J^T J`` of the smeared fit) knows that direction: its weakest
+    eigenvector, in units of the perfect match's deviations ``unit`` (x, y, theta).
+    When that direction is at least ``ratio`` times longer than the strongest (standard
+    deviations, the same test as the odometry edges' ``_degenerate``), the response is
+    scored at ``-steps..steps`` unit steps along it and, as Karto's
+    ``ComputePositionalCovariance`` does over its window, the offsets within ``drop``
+    (a share of the points) of the best count, weighted by their score: their second
+    moment is the variance along the direction."""
+    h = np.asarray(hessian, float) * unit[:, None] * unit[None, :]
+    w, v = np.linalg.eigh(0.5 * (h + h.T))
+    if w[-1] <= 0.0 or w[-1] < ratio * ratio * max(float(w[0]), 1e-12):
+        return None
+    d = v[:, 0] * unit  # one step along the weakest direction (metres, radians)
+    t = np.arange(-steps, steps + 1, dtype=np.float64)
+    th = pose[2] + t * d[2]
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    wx = c * local[:, 0] - s * local[:, 1] + (pose[0] + t * d[0])[:, None]
+    wy = s * local[:, 0] + c * local[:, 1] + (pose[1] + t * d[1])[:, None]
+    cols = np.rint((wx - grid.origin[0]) / grid.resolution).astype(np.int64)
+    rows = np.rint((wy - grid.origin[1]) / grid.resolution).astype(np.int64)
+    scores = _sums_at_rows(grid.fine, rows, cols)
+    keep = scores >= scores.max() - drop * local.shape[0]
+    weights = scores[keep]
+    if weights.sum() <= 0.0:
+        return None
+    var = float((weights * t[keep] ** 2).sum() / weights.sum())
+    return var * np.outer(d, d)
 
 
 @numba.njit(cache=True)

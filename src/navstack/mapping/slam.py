@@ -58,6 +58,7 @@ from navstack.mapping.scan_matcher import (
     LikelihoodGrid,
     MatchResult,
     SearchWindow,
+    coupled_covariance,
     match_scan,
     response_covariance,
 )
@@ -131,6 +132,8 @@ class SlamStats:
     wide_recoveries: int = 0
     unlinked_nodes: int = 0
     odometry_edges: int = 0
+    #: nodes placed by odometry alone: fewer than ``link_match_minimum_points`` returns
+    sparse_nodes: int = 0
     #: (scan number, reason) of every scan whose odometry was missing or not trusted
     odometry_events: list[tuple[int, str]] = field(default_factory=list)
     #: scan numbers placed by the wide search rather than the local match
@@ -622,8 +625,13 @@ class SlamMapper:
         surface sees a corridor or an open hall as what it is, so that the odometry and
         the loop closures decide the directions a scan leaves open."""
         unit = self.match_unit()
-        return (response_covariance(grid, points, match.pose, window)
-                + np.diag(unit * unit))
+        cov = response_covariance(grid, points, match.pose, window) + np.diag(unit * unit)
+        ratio = self.params.link_match_coupled_variance_ratio
+        if ratio > 0.0 and match.hessian is not None:
+            coupled = coupled_covariance(grid, points, match.pose, match.hessian, unit, ratio)
+            if coupled is not None:
+                cov = cov + coupled
+        return cov
 
     # --- nodes and edges --------------------------------------------------------------
     def _append_node(self, node: ScanNode, pose: FloatArray) -> None:
@@ -653,7 +661,13 @@ class SlamMapper:
         match: MatchResult | None = None
         window = None if missing else self._link_window(
             se2_between(self._poses[prev_id], guess))
-        if p.use_scan_matching and reference:
+        # too few returns to constrain a match (open space beyond a short lidar's range):
+        # with trusted odometry the scan is placed by it, as an odometry link
+        sparse = (node.points.shape[0] < p.link_match_minimum_points
+                  and not (missing or restarting or check.suspect))
+        if sparse:
+            self.stats.sparse_nodes += 1
+        if p.use_scan_matching and reference and not sparse:
             ref, nrm, msk, local = self._local_map(reference)
             grid: LikelihoodGrid | None = local
             if not (missing or restarting or check.suspect):
@@ -673,7 +687,8 @@ class SlamMapper:
         typical = self.typical_response()
         radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
                                      self._seen_speed())
-        if p.use_scan_matching and (check.suspect or restarting or failed or missing):
+        if p.use_scan_matching and not sparse and (check.suspect or restarting or failed
+                                                   or missing):
             query = node.points
             if not check.missing and odom is not None and prev_cut:
                 query = self._with_floating(node.points, odom)
@@ -704,11 +719,19 @@ class SlamMapper:
             placed_id if missing else prev_id)
         if match is not None and matched:
             pose = match.pose
+            ratio = p.link_match_weak_direction_ratio
+            if ratio > 0.0 and not (missing or restarting or check.suspect) and _degenerate(
+                    match.covariance, self.match_unit(), ratio):
+                # a degenerate match: its flat directions are noise, the odometry's
+                # prediction decides there (information-weighted, as for skipped scans)
+                pose = _fuse(guess, self._odometry_noise.covariance(
+                    se2_between(self._poses[prev_id], guess)), pose,
+                    tangent_covariance(match.covariance, pose[2]))
             cov = tangent_covariance(match.covariance, pose[2])
             if not check.suspect and not missing:
                 self._responses = [*self._responses, match.response][-20:]
         else:
-            if p.use_scan_matching:
+            if p.use_scan_matching and not sparse:
                 self.stats.match_failures += 1
             pose = guess
             if missing:
@@ -756,17 +779,21 @@ class SlamMapper:
             # the scale is learned from well-conditioned matches only: along a corridor
             # or across an open space the match is what is uncertain (its pull-back along
             # walls that run out of range taught a wrong scale: simulated campus ATE 0.059
-            # -> 0.024 m); the noise from every match, as before
-            self._odometry_noise.observe(se2_between(prev_odom, odom),
-                                         se2_between(self._poses[prev_id], pose),
-                                         scale=not degenerate)
+            # -> 0.024 m); the noise from every match, as before, unless
+            # odometry_noise_from_degenerate_matches is off (there the disagreement is the
+            # match's error: a short-range lidar's sparse scans made good wheel odometry
+            # look 5x worse than it is)
+            if p.odometry_noise_from_degenerate_matches or not degenerate:
+                self._odometry_noise.observe(se2_between(prev_odom, odom),
+                                             se2_between(self._poses[prev_id], pose),
+                                             scale=not degenerate)
             step = se2_between(prev_odom, odom)
             if p.odometry_scale_correction:
                 step = self._odometry_noise.calibrated_step(step)
             odo_cov = self._odometry_noise.covariance(step)
-            if self._odometry_noise.calibrated and degenerate and float(
-                    np.max(np.linalg.eigvals(
-                    cov @ np.linalg.inv(odo_cov)).real)) >= 0.1:
+            if self._odometry_noise.calibrated and (p.odometry_edges_on_every_link or (
+                    degenerate and float(np.max(np.linalg.eigvals(
+                        cov @ np.linalg.inv(odo_cov)).real)) >= 0.1)):
                 # the odometry as its own constraint where the scan match is degenerate
                 # (along a corridor, in an open hall: Zhang, Kaess & Singh, ICRA 2016)
                 # and the odometry carries at least a tenth of the match's information
@@ -779,7 +806,8 @@ class SlamMapper:
                 if p.odometry_edge_weak_directions:
                     odo_info = _weak_part(odo_info, cov, self.match_unit())
                 self.graph.add_edge(prev_id, node.node_id, step, odo_info,
-                                    robust_kernel=1.0, kernel="cauchy")
+                                    robust_kernel=p.odometry_edge_robust_kernel,
+                                    kernel="cauchy")
                 self.stats.odometry_edges += 1
         self.graph.update()
         if restarting:

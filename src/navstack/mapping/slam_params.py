@@ -148,6 +148,10 @@ class SlamParams(Params):
     odometry_edge_weak_directions: bool = False
     odometry_linear_error: float = Field(0.05, ge=0.0)
     odometry_angular_error: float = Field(0.05, ge=0.0)
+    # navstack: the odometry edge's standard deviation per step before the learned part
+    # [m], [rad] (odometry_check.OdometryNoise)
+    odometry_linear_error_floor: float = Field(0.02, gt=0.0)
+    odometry_angular_error_floor: float = Field(0.017453292519943295, gt=0.0)
     odometry_maximum_speed: float = Field(1.0, gt=0.0)
     odometry_maximum_turn_rate: float = Field(3.0, gt=0.0)
     recovery_search_minimum_distance: float = Field(1.0, gt=0.0)
@@ -165,6 +169,29 @@ class SlamParams(Params):
     # every point (Karto).  Removes the pull back along walls that run out of range (a
     # corridor longer than a 3.5 m LDS), see slam.py
     link_match_coverage_margin: float = Field(0.0, ge=0.0)
+    # navstack, for short-range lidars (docs/mapping.md, "Sparse scans"; the TurtleBot3
+    # LDS profile turns these on, 0 / off = Karto's behaviour):
+    # - a link match whose Gauss-Newton covariance is this many times longer (standard
+    #   deviations, in match units) in its weakest direction than in its strongest is
+    #   scored along that direction and its covariance widened there
+    #   (scan_matcher.coupled_covariance: a lone cluster of returns lets the scan turn
+    #   about it, which the x / y / theta response surface cannot see)
+    link_match_coupled_variance_ratio: float = Field(0.0, ge=0.0)
+    # - a link match this degenerate (weakest / strongest standard deviation) is fused
+    #   with the odometry's prediction by their information (its flat directions take
+    #   the odometry's; Zhang, Kaess & Singh, ICRA 2016)
+    link_match_weak_direction_ratio: float = Field(0.0, ge=0.0)
+    # - a scan with fewer returns in range than this is not matched when its odometry is
+    #   trusted: placed by the odometry with the odometry's covariance
+    link_match_minimum_points: int = Field(0, ge=0)
+    # - an odometry edge on every matched link (Cartographer's odometry constraints
+    #   between consecutive nodes), not only where the match is degenerate
+    odometry_edges_on_every_link: bool = False
+    # - learn the odometry's noise from degenerate matches too (false: from
+    #   well-conditioned ones only, as the scale)
+    odometry_noise_from_degenerate_matches: bool = True
+    # - the Cauchy kernel of odometry edges, in sigmas (0 = none)
+    odometry_edge_robust_kernel: float = Field(1.0, ge=0.0)
 
     # --- solver (accepted for slam_toolbox files; the back end is gtsam) ---
     solver_plugin: str = "solver_plugins::CeresSolver"
