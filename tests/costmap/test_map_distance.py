@@ -24,17 +24,42 @@ def test_beyond_matches_the_transform(origin: tuple[float, float, float]) -> Non
     values[rng.random(values.shape) < 0.01] = -1
     values[rng.random(values.shape) < 0.01] = 70  # occupied (>= 65)
     values[rng.random(values.shape) < 0.01] = 50  # free
-    md = MapDistance()
-    md.update(_grid(values, 0.05, origin))
+    reference = MapDistance()
+    reference.update(_grid(values, 0.05, origin))
     ox, oy, _ = origin
     xy = np.column_stack((rng.uniform(ox - 3.0, ox + 6.0, 4000),
                           rng.uniform(oy - 3.0, oy + 5.0, 4000)))
-    dist = md.at(xy)
+    dist = reference.at(xy)
     assert (dist == 0.0).sum() > 100 and np.isfinite(dist).all() and dist.max() > 0.2
     # thresholds on cell-distance boundaries (1, sqrt 2, 2, sqrt 5, ... cells) and between
     for d in (0.0, 0.05, 0.05 * np.sqrt(2.0), 0.1, 0.05 * np.sqrt(5.0), 0.15, 0.17, 0.3):
+        md = MapDistance()  # a fresh map each time: the disc lookups, not the transform
+        md.update(_grid(values, 0.05, origin))
+        np.testing.assert_array_equal(md.beyond(xy[:20], float(d)), dist[:20] > d)
+        assert md._distance is None, f"d={d}: 20 points computed the whole-map transform"
         np.testing.assert_array_equal(md.beyond(xy, float(d)), dist > d, err_msg=f"d={d}")
-    assert md.beyond(xy, -0.1).all()
+    assert reference.beyond(xy, -0.1).all()
+
+
+def test_beyond_on_a_map_that_stays_computes_the_transform_once() -> None:
+    """A static map asked many times switches to the transform (one lookup per point);
+    a new map goes back to the discs."""
+    rng = np.random.default_rng(7)
+    values = np.zeros((200, 200), dtype=np.int8)
+    values[rng.random(values.shape) < 0.03] = 100
+    md = MapDistance()
+    md.update(_grid(values, 0.05, (0.0, 0.0, 0.0)))
+    xy = rng.uniform(0.0, 10.0, (200, 2))
+    first = md.beyond(xy, 0.2)
+    assert md._distance is None
+    answers = [md.beyond(xy, 0.2) for _ in range(40)]
+    assert md._distance is not None, "the discs kept looking after 40 x 200 x 49 cells"
+    for a in answers:
+        np.testing.assert_array_equal(a, first)
+    np.testing.assert_array_equal(first, md.at(xy) > 0.2)
+    md.update(_grid(values, 0.05, (0.0, 0.0, 0.0)))
+    np.testing.assert_array_equal(md.beyond(xy, 0.2), first)
+    assert md._distance is None
 
 
 def test_beyond_without_explained_cells_and_before_a_map() -> None:
