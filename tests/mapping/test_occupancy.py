@@ -21,6 +21,7 @@ from navstack.mapping.occupancy import (
     MapGrowthError,
     MappingError,
     ScanData,
+    free_thresh_after,
     logit,
     scan_endpoints,
 )
@@ -165,6 +166,31 @@ def test_thresholds_are_respected() -> None:
         g.to_occupancy_grid(occupied_thresh=0.2, free_thresh=0.3)
 
 
+def test_free_thresh_after_shows_a_cell_free_after_exactly_that_many_crossing_scans() -> None:
+    # map_server's free_thresh 0.196 lies between 3 and 4 OctoMap misses
+    assert free_thresh_after(4) == pytest.approx(0.1948, abs=1e-4)
+    assert free_thresh_after(4) < 0.196 < free_thresh_after(3)
+    g = LogOddsGrid(RES, bounds=(0.0, 0.0, 1.0, 1.0))
+    row = []
+    for _ in range(5):  # the same beam again: cells 2-4 crossed, cell 5 hit each time
+        g.integrate_scan([0.125, 0.125], [[0.275, 0.125]], [True])
+        row.append([g.to_occupancy_grid(free_thresh=free_thresh_after(n)).data[2, 3]
+                    for n in (1, 2, 3, 4)])
+    assert row == [[0, -1, -1, -1], [0, 0, -1, -1], [0, 0, 0, -1], [0, 0, 0, 0],
+                   [0, 0, 0, 0]]
+    # a cell some scan ended in needs more: one hit and two misses is not free after 2
+    h = LogOddsGrid(RES, bounds=(0.0, 0.0, 1.0, 1.0))
+    h.integrate_scan([0.125, 0.125], [[0.275, 0.125]], [True])
+    h.integrate_scan([0.125, 0.125], [[0.475, 0.125]], [True])
+    h.integrate_scan([0.125, 0.125], [[0.475, 0.125]], [True])
+    data = h.to_occupancy_grid(free_thresh=free_thresh_after(2)).data[2]
+    assert data[5] == -1 and data[4] == 0 and data[9] == 100
+    with pytest.raises(MappingError, match="scans must be at least 1"):
+        free_thresh_after(0)
+    with pytest.raises(MappingError, match="l_free must be negative"):
+        free_thresh_after(2, l_free=0.1)
+
+
 def test_scan_endpoints_range_semantics() -> None:
     pose = (1.0, 2.0, math.pi / 2)
     ranges = [3.0, np.inf, 12.0, 8.0, np.nan, -np.inf, 0.05, 10.0]
@@ -238,6 +264,17 @@ def test_save_then_load_map_returns_identical_cells(tmp_path: Path) -> None:
     assert grid.data.shape == (42, 42)  # cropped to the observed walls
     assert loaded.data[loaded.world_to_cell(1.02, 0.0)] == 100
     assert loaded.data[loaded.world_to_cell(0.5, 0.5)] == 0
+    # one scan, classified with a free_thresh above 0.196: the YAML keeps 0.196, so the
+    # cells left unknown stay unknown on reload
+    one = LogOddsGrid(RES)
+    one.integrate_scan([0.31, -0.22], ends, hits)
+    lenient = one.to_occupancy_grid(crop=True, free_thresh=free_thresh_after(1))
+    one.save(tmp_path / "lenient.yaml", free_thresh=free_thresh_after(1))
+    assert "free_thresh: 0.196" in (tmp_path / "lenient.yaml").read_text()
+    again = load_map(tmp_path / "lenient.yaml")
+    np.testing.assert_array_equal(again.data, lenient.data)
+    assert np.count_nonzero(again.data == 0) == np.count_nonzero(loaded.data == 0)
+    assert np.count_nonzero(one.to_occupancy_grid(crop=True).data == 0) == 0
 
 
 def test_save_png_is_north_up_greyscale(tmp_path: Path) -> None:

@@ -60,8 +60,11 @@ def test_written_files_reload(intel: OfflineResult, tmp_path: Path) -> None:
     grid = intel.mapper.build_map()
     loaded = load_map(files["map_yaml"])
     assert loaded.info.resolution == pytest.approx(0.05)
-    expected = grid.to_occupancy_grid(crop=True)
+    # the SLAM's own free threshold (map_free_scans: 2), with unknown kept on reload
+    expected = grid.to_occupancy_grid(crop=True,
+                                      free_thresh=intel.mapper.params.map_free_thresh)
     assert np.array_equal(loaded.data, expected.data)
+    assert (loaded.data == 0).sum() > (grid.to_occupancy_grid(crop=True).data == 0).sum()
     assert loaded.info.origin.position == expected.info.origin.position
     assert (loaded.data == 100).sum() > 200  # walls seen by the 6 scans (305 cells)
 

@@ -77,6 +77,19 @@ def test_unknown_slam_key_names_file_and_suggestion() -> None:
     assert "minimum_travel_distance" in text
 
 
+def test_map_free_scans_sets_the_rendering_threshold_and_refuses_zero() -> None:
+    from navstack.mapping.occupancy import free_thresh_after
+
+    assert SlamParams().map_free_scans == 2
+    assert SlamParams().map_free_thresh == pytest.approx(free_thresh_after(2))
+    assert SlamParams.from_mapping({"map_free_scans": 4}).map_free_thresh == pytest.approx(
+        0.1948, abs=1e-4)
+    with pytest.raises(ConfigError) as err:
+        SlamParams.from_mapping({"map_free_scans": 0}, file="slam.yaml",
+                                key_path="slam_toolbox")
+    assert "slam_toolbox.map_free_scans" in str(err.value)
+
+
 def test_point_to_line_icp_recovers_a_small_offset(office) -> None:
     truth = np.array([3.0, 3.0, 0.2])
     ranges = _ranges(office, truth)

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from navstack.core.map_files import load_map
 from navstack.core.msgs import OccupancyGrid, Twist
+from navstack.mapping.occupancy import free_thresh_after
 from navstack.mapping.slam_params import SlamParams
 from navstack.nodes.slam import SlamNode, pad_to_extent
 from navstack.runtime.node import Runtime
@@ -108,6 +110,33 @@ def test_deserialize_refuses_bad_requests(tmp_path: Path) -> None:
     from navstack.mapping.slam_io import PoseGraphFileError
     with pytest.raises(PoseGraphFileError, match="no such pose graph file"):
         slam.load(tmp_path / "missing.posegraph")
+
+
+def test_published_and_saved_maps_show_free_space_after_map_free_scans_scans(
+        tmp_path: Path) -> None:
+    """Free space appears after ``map_free_scans`` node scans (2, Karto-like), not the
+    four map_server's 0.196 would need; occupied cells do not depend on it."""
+    grids = {}
+    for n in (2, 4):
+        rt, _, slam, _ = _slam_sim({"map_free_scans": n})
+        rt.scheduler.run_until(3.0)
+        assert slam.mapper is not None and 3 <= len(slam.mapper.nodes) <= 5
+        grid = slam.occupancy_grid()
+        assert grid is not None
+        expected = slam.mapper.live_map().to_occupancy_grid(
+            crop=True, free_thresh=free_thresh_after(n))
+        np.testing.assert_array_equal(grid.data, expected.data)
+        grids[n] = grid.data
+        if n == 2:
+            reply = rt.bus.call("/slam_toolbox/save_map", {"name": str(tmp_path / "m")})
+            assert reply["result"]
+            assert "free_thresh: 0.196" in (tmp_path / "m.yaml").read_text()
+            saved = load_map(tmp_path / "m.yaml")
+            np.testing.assert_array_equal(
+                saved.data, slam.mapper.build_map().to_occupancy_grid(
+                    crop=True, free_thresh=free_thresh_after(2)).data)
+    assert np.count_nonzero(grids[2] == 0) > 1.3 * np.count_nonzero(grids[4] == 0)
+    np.testing.assert_array_equal(grids[2] == 100, grids[4] == 100)
 
 
 def test_asynchronous_mode_processes_scans_off_the_callback() -> None:

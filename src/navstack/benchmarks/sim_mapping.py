@@ -107,7 +107,8 @@ def run_sim_mapping(slam: Mapping[str, Any] | None = None, *, world: str = "offi
     if slam_node.mapper is None or not slam_node.mapper.nodes:
         raise RuntimeError("SLAM produced no map: no scan was processed")
     # the map SLAM saves (its graph's scans; /slam_toolbox/save_map), not the live one
-    grid = slam_node.mapper.build_map().to_occupancy_grid(crop=True)
+    grid = slam_node.mapper.build_map().to_occupancy_grid(
+        crop=True, free_thresh=slam_node.params.map_free_thresh)
     score = occupancy_iou(grid, stack.world.to_occupancy_grid())
     return SimMappingResult(ate.rms_m, ate.max_m, score, outcomes, slam_node.mapper.stats,
                             stack.now, stack.sim.sim.collisions, len(est))

@@ -214,7 +214,8 @@ def map_world(sim: SimLog) -> tuple[OfflineResult, MapScore]:
     truth = load_world(sim.world).to_occupancy_grid()
     # the map holds the node scans: score it on the walls they hit from their true poses
     node_scans = np.flatnonzero(np.diff(np.r_[-1, result.node_index]) > 0)
-    return result, occupancy_iou(grid.to_occupancy_grid(crop=True), truth,
+    estimate = grid.to_occupancy_grid(crop=True, free_thresh=params.map_free_thresh)
+    return result, occupancy_iou(estimate, truth,
                                  observed_points=route_returns(sim, mapper.scan_points,
                                                                node_scans))
 

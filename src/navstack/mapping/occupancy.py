@@ -65,6 +65,25 @@ L_OCC_DEFAULT = logit(0.7)
 L_FREE_DEFAULT = logit(0.4)
 
 
+def free_thresh_after(scans: int, l_free: float = L_FREE_DEFAULT) -> float:
+    """The trinary ``free_thresh`` at which a cell shows free once ``scans`` scans more
+    crossed it (each adding ``l_free``) than ended in it -- precisely, once its log-odds
+    is at most ``scans * l_free`` (a cell some scan ended in needs more).
+
+    The threshold sits halfway between ``scans`` and ``scans - 1`` free updates, so the
+    float32 sums of the grid fall clearly on one side.  With OctoMap's ``l_free =
+    logit(0.4)`` map_server's ``free_thresh`` 0.196 is 3.5 updates: four scans.  Karto
+    (slam_toolbox's map) shows a cell free once more than ``MinPassThrough`` = 2 rays
+    crossed it and at most ``OccupancyThreshold`` = 10 % of them ended in it
+    (``OccupancyGrid::UpdateCell``), so its free space appears after one or two scans
+    (docs/mapping.md, "Free space of the published map")."""
+    if scans < 1:
+        raise MappingError(f"scans must be at least 1, got {scans}")
+    if not l_free < 0.0:
+        raise MappingError(f"l_free must be negative, got {l_free}")
+    return 1.0 / (1.0 + math.exp(-(scans - 0.5) * l_free))
+
+
 HIT_DEPTH = 1e-3  # [m] see scan_endpoints
 
 
@@ -533,13 +552,18 @@ class LogOddsGrid:
              free_thresh: float = DEFAULT_FREE_THRESH, *, crop: bool = True) -> Path:
         """Write a map_server YAML + image (Nav2 map_saver semantics); returns the image path.
 
-        ``trinary`` saves :meth:`to_occupancy_grid` in trinary form, so ``load_map`` with the
-        written thresholds returns exactly the same cells; ``scale``/``raw`` save the
-        ``probability`` grid.
+        ``trinary`` saves :meth:`to_occupancy_grid` in trinary form, classified with the
+        thresholds given, and writes map_saver's defaults (0.65 / 0.196) into the YAML:
+        they reload the three grey levels as exactly the same cells, whereas a written
+        ``free_thresh`` above 0.196 would reload unknown grey 205 as free (slam_toolbox
+        issue #587).  ``scale``/``raw`` save the ``probability`` grid with the thresholds
+        given.
         """
         grid_mode: GridMode = "trinary" if mode == "trinary" else "probability"
         grid = self.to_occupancy_grid(occupied_thresh=occupied_thresh, free_thresh=free_thresh,
                                       crop=crop, mode=grid_mode)
+        if grid_mode == "trinary":
+            occupied_thresh, free_thresh = DEFAULT_OCCUPIED_THRESH, DEFAULT_FREE_THRESH
         return save_map(grid, yaml_path, mode=mode, occupied_thresh=occupied_thresh,
                         free_thresh=free_thresh)
 

@@ -169,7 +169,9 @@ def write_outputs(result: OfflineResult, out_dir: str | Path) -> dict[str, str]:
     except OSError as exc:
         raise OfflineSlamError(f"cannot create the output folder {out} ({exc})") from None
     grid = result.mapper.build_map()
-    files = {"map_yaml": out / "map.yaml", "map_image": grid.save(out / "map.yaml"),
+    files = {"map_yaml": out / "map.yaml",
+             "map_image": grid.save(out / "map.yaml",
+                                    free_thresh=result.mapper.params.map_free_thresh),
              "map_png": grid.save_png(out / "map.png"),
              "trajectory": out / "trajectory.csv",
              "posegraph": save_posegraph(result.mapper, out / "map.posegraph"),

@@ -31,6 +31,7 @@ from typing import Literal
 from pydantic import Field
 
 from navstack.core.params import Params
+from navstack.mapping.occupancy import free_thresh_after
 
 __all__ = ["SlamParams", "unused_solver_keys"]
 
@@ -59,6 +60,11 @@ class SlamParams(Params):
     transform_publish_period: float = Field(0.02, ge=0.0)
     map_update_interval: float = Field(5.0, gt=0.0)
     resolution: float = Field(0.05, gt=0.0)
+    # navstack: the published and saved map show a cell free once this many scans more
+    # crossed it than ended in it (occupancy.free_thresh_after).  Karto's map does after
+    # 2 ray passes (MinPassThrough); map_server's free_thresh 0.196 would need 4 scans,
+    # which left /map about a metre of travel behind the costmaps (docs/mapping.md)
+    map_free_scans: int = Field(2, ge=1)
     min_laser_range: float = Field(0.0, ge=0.0)
     max_laser_range: float = Field(20.0, gt=0.0)
     minimum_time_interval: float = Field(0.5, ge=0.0)
@@ -173,6 +179,12 @@ class SlamParams(Params):
     ceres_trust_strategy: str = "LEVENBERG_MARQUARDT"
     ceres_dogleg_type: str = "TRADITIONAL_DOGLEG"
     ceres_loss_function: str = "None"
+
+
+    @property
+    def map_free_thresh(self) -> float:
+        """The ``free_thresh`` the map is rendered and saved with (``map_free_scans``)."""
+        return free_thresh_after(self.map_free_scans)
 
 
 def unused_solver_keys(params: SlamParams) -> list[str]:

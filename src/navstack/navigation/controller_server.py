@@ -109,7 +109,7 @@ class ControllerServer(Node):
         self._last_valid_cmd_t = 0.0
         self.cycles = 0
         self.last_cmd = Twist2D()
-        self._plan_cache: tuple[Path, Pose2D, Path, float] | None = None
+        self._plan_cache: tuple[Path, Pose2D, Path] | None = None
         self.speed_limit: tuple[float, bool] = (0.0, True)
         """Last speed limit given to the controllers: ``(limit, percentage)``, 0 = none."""
         self.rejected_speed_limits = 0
@@ -248,11 +248,8 @@ class ControllerServer(Node):
     def _plan_in(self, path: Path, frame: str) -> Path:
         """The plan in the controller's frame.
 
-        Re-transformed only when the plan changes, or when the transform's change since the
-        last one would move some plan pose by more than a fifth of a costmap cell (1 cm)
-        -- its translation plus its rotation times the farthest pose's distance from the
-        plan frame's origin, so a plan 50 m from the map origin is not left 0.25 m behind
-        by a 0.005 rad correction -- or turn a pose by more than 0.005 rad:
+        Re-transformed only when the plan changes or ``frame <- plan frame`` has moved by
+        more than a fifth of a costmap cell (1 cm) / 0.005 rad since the last transform:
         the controller keeps one plan object (a new object resets DWB's critics, as
         Nav2's setPlan does) and odometry jitter does not rebuild the plan every cycle,
         while a SLAM correction of ``map -> odom`` moves the plan's end with the goal the
@@ -264,15 +261,10 @@ class ControllerServer(Node):
             return path
         t = self.tf.lookup_pose2d(frame, src)
         cached = self._plan_cache
-        if cached is not None and cached[0] is path:
-            turn = abs(angle_diff(t.theta, cached[1].theta))
-            if turn < 0.005 and t.distance_to(cached[1]) + turn * cached[3] < 0.01:
-                return cached[2]
-            reach = cached[3]
-        else:
-            poses = path.as_array()
-            reach = float(np.hypot(poses[:, 0], poses[:, 1]).max()) if len(poses) else 0.0
+        if (cached is not None and cached[0] is path and t.distance_to(cached[1]) < 0.01
+                and abs(angle_diff(t.theta, cached[1].theta)) < 0.005):
+            return cached[2]
         moved = Path.from_array(se2_compose(t.as_array(), path.as_array()), frame,
                                 path.header.stamp)
-        self._plan_cache = (path, t, moved, reach)
+        self._plan_cache = (path, t, moved)
         return moved

@@ -226,7 +226,8 @@ class SlamNode(Node):
             # the node scans only: clearing with the latest scans on top eroded walls the
             # planner then routed through (docs/mapping.md, "Online")
             grid = self.mapper.live_map()
-        msg = grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
+        msg = grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True,
+                                     free_thresh=self.params.map_free_thresh)
         return msg if extent is None else pad_to_extent(msg, extent)
 
     def saved_map(self) -> OccupancyGrid | None:
@@ -237,7 +238,8 @@ class SlamNode(Node):
             return None
         with self._lock:
             grid = self.mapper.build_map()
-        return grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True)
+        return grid.to_occupancy_grid(self.params.map_frame, self.now, crop=True,
+                                      free_thresh=self.params.map_free_thresh)
 
     def publish_map(self) -> None:
         grid = self.occupancy_grid()
@@ -250,7 +252,8 @@ class SlamNode(Node):
         name = str(request.get("name", "map"))
         if self.mapper is None or not self.mapper.nodes:
             return {"result": False, "reason": "no map yet: SLAM has not processed a scan"}
-        path = self.mapper.build_map().save(Path(name).with_suffix(".yaml"))
+        path = self.mapper.build_map().save(Path(name).with_suffix(".yaml"),
+                                            free_thresh=self.params.map_free_thresh)
         return {"result": True, "path": str(path)}
 
     def _serialize_request(self, request: dict[str, Any]) -> dict[str, Any]:
