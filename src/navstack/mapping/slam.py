@@ -76,6 +76,12 @@ PREDICTION_MAXIMUM_SCALE = 1.5
 #: response (:func:`_gap_choice`); a strong fit is at least ``GAP_STRONG_RESPONSE``
 GAP_WEAK_RESPONSE = 0.5
 GAP_STRONG_RESPONSE = 0.9
+#: the robot's seen speed and step (:meth:`SlamMapper._seen_speed`, ``_seen_step``)
+#: bound the wide search once this many were measured.  Ten let the first gap scans of
+#: a slow robot be searched ``odometry_maximum_speed`` times the gap away (Intel with
+#: every second interval's odometry removed: scan 13 was placed 4 m along a corridor,
+#: the next 18 scans followed it; ATE 0.34 -> 0.25 m with three)
+SEEN_MOTION_MINIMUM_SAMPLES = 3
 
 __all__ = ["LaserGeometry", "ScanNode", "SlamMapper", "SlamStats"]
 
@@ -199,6 +205,7 @@ class SlamMapper:
         self._gap_before: dict[int, bool] = {}  # node -> its odometry had a gap before it
         self._last_placed = 0
         self._speeds: list[float] = []   # speeds between placed nodes seen [m/s]
+        self._steps: list[float] = []    # distances between placed nodes seen [m]
         self._responses: list[float] = []  # responses of the last ordinary links
         self._closure_edges: list[int] = []  # edge numbers of the loop closures
         self._closure_events = 0
@@ -420,7 +427,8 @@ class SlamMapper:
                                       covariance=False)
             if match is None or match.response < 0.9 * self.typical_response():
                 radius = check.search_radius(p, False, stamp - self.nodes[last].stamp,
-                                             self._seen_speed())
+                                             self._seen_speed(), self._seen_step(),
+                                             _distance(guess, self._poses[last]))
                 wide = wide_link(self, points, guess, radius, self._running)
                 if wide is not None and (match is None or wide.response > match.response):
                     self.stats.wide_recoveries += 1
@@ -455,8 +463,18 @@ class SlamMapper:
         return best.pose
 
     def _seen_speed(self) -> float:
-        """The robot's top speed so far (90th percentile: log clocks jitter)."""
-        return float(np.percentile(self._speeds, 90)) if len(self._speeds) >= 10 else 0.0
+        """The robot's top speed so far (90th percentile: log clocks jitter), 0 before
+        :data:`SEEN_MOTION_MINIMUM_SAMPLES` speeds were measured."""
+        return float(np.percentile(self._speeds, 90)) \
+            if len(self._speeds) >= SEEN_MOTION_MINIMUM_SAMPLES else 0.0
+
+    def _seen_step(self) -> float:
+        """The robot's longest step between placed scans so far (90th percentile), 0
+        before :data:`SEEN_MOTION_MINIMUM_SAMPLES` steps were measured: the reach of a
+        step without odometry when the clock cannot tell
+        (:meth:`OdometryCheck.search_radius`)."""
+        return float(np.percentile(self._steps, 90)) \
+            if len(self._steps) >= SEEN_MOTION_MINIMUM_SAMPLES else 0.0
 
     def _start_pose(self, odom: FloatArray) -> FloatArray:
         start = self.params.map_start_pose
@@ -686,7 +704,8 @@ class SlamMapper:
         failed = match is None or match.response < p.link_match_minimum_response_fine
         typical = self.typical_response()
         radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
-                                     self._seen_speed())
+                                     self._seen_speed(), self._seen_step(),
+                                     _distance(guess, self._poses[placed_id]))
         if p.use_scan_matching and not sparse and (check.suspect or restarting or failed
                                                    or missing):
             query = node.points
@@ -696,7 +715,10 @@ class SlamMapper:
                 # no odometry over the step: always search as far as the robot could
                 # have moved (a strong local fit around a guessed motion is often a
                 # corridor's alias), then choose (:func:`_gap_choice`)
-                wide, ambiguous = predicted_link(self, query, guess, radius, reference)
+                full = check.search_radius(p, restarting, node.stamp
+                                           - self.nodes[placed_id].stamp, self._seen_speed())
+                wide, ambiguous, radius = self._gap_search(query, guess, radius, full,
+                                                           reference, typical)
                 chosen = _gap_choice(match, wide, ambiguous, typical)
                 if ambiguous and chosen is not None:
                     self.stats.ambiguous_scans.append(self.stats.scans_received - 1)
@@ -768,10 +790,12 @@ class SlamMapper:
                 self._unplaced.discard(prev_id)
         if node.node_id not in self._unplaced:
             dt = node.stamp - self.nodes[placed_id].stamp
-            if matched and not missing and dt > 0.0:
+            if matched and not missing:
                 moved = math.hypot(float(pose[0] - self._poses[placed_id, 0]),
                                    float(pose[1] - self._poses[placed_id, 1]))
-                self._speeds = [*self._speeds, moved / dt][-200:]
+                self._steps = [*self._steps, moved][-200:]
+                if dt > 0.0:
+                    self._speeds = [*self._speeds, moved / dt][-200:]
             self._last_placed = node.node_id
         if (p.use_odometry_edges and matched and not restarting and not check.suspect
                 and odom is not None and np.isfinite(prev_odom).all()):
@@ -813,6 +837,28 @@ class SlamMapper:
         if restarting:
             self._running = []
             self._restart = False
+
+    def _gap_search(self, query: FloatArray, guess: FloatArray, radius: float, full: float,
+                    reference: Sequence[int], typical: float
+                    ) -> tuple[MatchResult | None, bool, float]:
+        """The wide search of a scan with no odometry over its step
+        (:func:`~navstack.mapping.recovery.predicted_link`) within ``radius``, and
+        within ``full`` -- the reach the clock alone allows, larger when ``radius``
+        came from the seen step (:meth:`OdometryCheck.search_radius`) -- when nothing
+        fits within ``radius`` or only an ambiguous fit below ``GAP_STRONG_RESPONSE``
+        times the ``typical`` response: the seen step assumes one step, scans may have
+        been lost (the 80 degree turn cut out of CSAIL: a weak ambiguous fit 1.5 m off
+        at the wrong heading).  The wider search's answer replaces it unless that is
+        ambiguous too (then the nearer one is the likelier: CSAIL's corridors, every
+        second interval without odometry).  Returns the fit, whether it is ambiguous and
+        the radius it came from."""
+        wide, ambiguous = predicted_link(self, query, guess, radius, reference)
+        if radius < full and (wide is None or (
+                ambiguous and wide.response < GAP_STRONG_RESPONSE * typical)):
+            far, far_ambiguous = predicted_link(self, query, guess, full, reference)
+            if far is None or not far_ambiguous:
+                return far, False, full
+        return wide, ambiguous, radius
 
     def _with_floating(self, points: FloatArray, odom: FloatArray) -> FloatArray:
         """``points`` plus the scans of the unplaced nodes just before this scan, drawn
@@ -1129,6 +1175,11 @@ def _gap_choice(local: MatchResult | None, wide: MatchResult | None, ambiguous: 
     if ambiguous and local is not None and local.response >= GAP_STRONG_RESPONSE * typical:
         return local
     return wide
+
+
+def _distance(a: FloatArray, b: FloatArray) -> float:
+    """Distance between the positions of two poses."""
+    return math.hypot(float(a[0] - b[0]), float(a[1] - b[1]))
 
 
 def _fuse(a: FloatArray, cov_a: FloatArray, b: FloatArray, cov_b: FloatArray) -> FloatArray:
