@@ -246,3 +246,29 @@ def test_scans_without_returns_never_crash_the_mapper(office) -> None:
     # scans after it keep their odometry step, the last one matched to the one before
     assert np.diff(poses[-3:, 0]) == pytest.approx([0.5, 0.5], abs=0.02)
     assert np.abs(poses[:, 1] - 7.5).max() < 0.02
+
+
+def test_loop_search_against_a_submap_without_points_finds_nothing(office) -> None:
+    """A submap whose nodes saw nothing (a short-range lidar in open space) is no loop
+    closure candidate that can crash: matching a scan to it gives no closure (issue 16's
+    warehouse exploration crashed with 'PrecomputedGrids needs at least one point')."""
+    from navstack.mapping.fast_matcher import WideWindow
+    from navstack.mapping.loop_closure import LoopCandidate
+
+    params = SlamParams(minimum_time_interval=0.0, map_start_pose=[1.0, 7.5, 0.0])
+    mapper = SlamMapper(params, LASER)
+    empty = np.full(ANGLES.shape, np.inf)
+    size = params.loop_match_submap_size
+    for k in range(size):
+        assert mapper.process_scan(empty, (0.5 * k, 0.0, 0.0), float(k))
+    x = 0.5 * size
+    assert mapper.process_scan(_ranges(office, (1.0 + x, 7.5, 0.0)), (x, 0.0, 0.0),
+                               float(size))
+    loops = mapper._loops
+    submap = loops.submaps.complete()[0]
+    assert submap.nodes == list(range(size))
+    node = len(mapper.poses()) - 1
+    candidate = LoopCandidate(submap, np.array([x - 0.25 * size, 0.0, 0.0]),
+                              WideWindow(2.0, 2.0, 0.5), 0.0)
+    assert loops.match(node, candidate, mapper._poses) is None
+    assert mapper.stats.loop_attempts >= 1

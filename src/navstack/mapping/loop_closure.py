@@ -245,6 +245,10 @@ class LoopCloser:
         drawn = self.submaps.points(candidate.submap, poses, m.nodes)
         window = candidate.window
         points = m.nodes[node_id].points
+        if len(drawn.points) == 0 or len(points) == 0:
+            # a submap (or scan) of open space beyond the lidar's range holds nothing to
+            # match: no closure (a short-range lidar's sparse nodes, issue 16 warehouse)
+            return None
         # a wide window is searched on a coarser raster first (the submap's coarse grids)
         coarse = max(window.half_x, window.half_y) > 8.0 * self.submaps.resolution \
             or window.half_angle > 0.35
