@@ -130,6 +130,8 @@ class SlamStats:
     loop_weak: int = 0
     loop_corridor: int = 0
     loop_rejected_outliers: int = 0
+    #: closures whose scan saw through the submap's static structure (aliases)
+    loop_seen_through: int = 0
     loop_unconfirmed: int = 0
     batch_optimizations: int = 0
     odometry_missing: int = 0

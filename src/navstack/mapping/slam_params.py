@@ -134,11 +134,17 @@ class SlamParams(Params):
     loop_match_submap_size: int = Field(10, ge=1)
     loop_match_corridor_closures: bool = True
     loop_match_confirmation_nodes: int = Field(5, ge=0)
+    loop_match_confirmation_distinct_submaps: bool = True
     loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
     # navstack: a closure's fine response must reach this share of the ordinary links'
     # typical (median) response (0 = off): partial views fit biased (docs/mapping.md)
     loop_match_minimum_response_ratio: float = Field(0.75, ge=0.0, le=1.0)
+    # navstack: a closure whose scan, at the matched pose, passes through the submap's
+    # static structure on more than this many beams per beam that lands on it is an
+    # alias and rejected (0 = off; mapping/loop_closure.py, docs/mapping.md "Aliased
+    # closures")
+    loop_match_maximum_seen_through_ratio: float = Field(0.3, ge=0.0)
     loop_closure_batch_distance: float = Field(0.5, gt=0.0)
     # navstack: odometry edges where a match is degenerate and their initial noise
     # (fractions of the motion), the speed and turn rate odometry may not exceed, the
