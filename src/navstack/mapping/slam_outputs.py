@@ -102,6 +102,7 @@ def summary(result: OfflineResult, files: Mapping[str, str] | None = None) -> di
         "loop_rejected": {"ambiguous": stats.loop_ambiguous,
                           "implausible": stats.loop_implausible,
                           "weak": stats.loop_weak,
+                          "seen_through": stats.loop_seen_through,
                           "outliers": stats.loop_rejected_outliers,
                           "unconfirmed": stats.loop_unconfirmed},
         "corridor_closures": stats.loop_corridor,
