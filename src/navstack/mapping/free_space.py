@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["seen_through", "seen_through_beams"]
+__all__ = ["seen_through", "seen_through_beams", "static_points"]
 
 
 def seen_through(ranges: NDArray[np.floating], angles: FloatArray, range_min: float,

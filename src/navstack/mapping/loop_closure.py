@@ -32,7 +32,10 @@ line through the best pose at the same heading -- a corridor, whose walls fix th
 lateral position and the heading but not the position along it -- the closure is kept
 with a covariance that leaves the along-corridor direction free
 (``loop_match_corridor_closures``): it still removes a doubled corridor.  Then the drift
-bound and, after the optimiser took the closure in, the chi-square test of its residual
+bound, the free-space test (the scan may not see through the submap's static structure:
+``loop_match_maximum_seen_through_ratio``), the confirmation by an agreeing closure
+against another submap (``loop_match_confirmation_distinct_submaps``) and, after the
+optimiser took the closure in, the chi-square test of its residual
 (``loop_closure_maximum_chi2``; see :meth:`LoopCloser.reject_outliers`).
 """
 

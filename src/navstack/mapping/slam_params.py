@@ -134,6 +134,8 @@ class SlamParams(Params):
     loop_match_submap_size: int = Field(10, ge=1)
     loop_match_corridor_closures: bool = True
     loop_match_confirmation_nodes: int = Field(5, ge=0)
+    # navstack: the agreeing closure must be against another submap: two closures against
+    # one submap see its aliases alike (docs/mapping.md "Aliased closures")
     loop_match_confirmation_distinct_submaps: bool = True
     loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
