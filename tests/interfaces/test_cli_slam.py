@@ -81,6 +81,8 @@ def test_params_file_applies_over_log_profile(tmp_path: Path) -> None:
                                  "minimum_time_interval": 0.0, "match_skipped_scans": True,
                                  "loop_search_node_interval": 2, "dynamic_point_margin": 0.0,
                                  "loop_match_minimum_response_ratio": 0.0,
+                                 "loop_match_confirmation_distinct_submaps": False,
+                                 "loop_match_maximum_seen_through_ratio": 0.0,
                                  "odometry_scale_correction": True,
                                  "odometry_edge_weak_directions": True,
                                  "use_scan_matching": False, "resolution": 0.1}
