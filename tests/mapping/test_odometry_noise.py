@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from navstack.mapping.odometry_check import OdometryNoise
-from navstack.mapping.slam import _weak_part
+from navstack.mapping.slam_links import weak_part as _weak_part
 from navstack.mapping.slam_params import SlamParams
 
 

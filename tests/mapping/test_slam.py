@@ -143,13 +143,13 @@ def test_incremental_map_equals_a_rebuild_from_every_node(office) -> None:
         assert (a.info.width, a.info.height) == (b.info.width, b.info.height)
         assert a.info.origin.position.x == b.info.origin.position.x
         assert np.array_equal(np.asarray(a.data), np.asarray(b.data))
-    incremental, rebuilt = mapper.map_builds
+    incremental, rebuilt = mapper.maps.builds
     assert incremental >= 20 and rebuilt >= 1
-    cache = mapper._map_cache
+    cache = mapper.maps.cache
     assert cache is not None
     cache.poses[0, 0] -= 0.01  # as if the graph had moved the first node since
     mapper.build_map()
-    assert mapper.map_builds == [incremental, rebuilt + 1]
+    assert mapper.maps.builds == [incremental, rebuilt + 1]
 
 
 def _corridor_drive(margin: float) -> tuple[float, float]:

@@ -161,3 +161,32 @@ def test_pad_to_extent_grows_with_unknown_cells_and_keeps_alignment() -> None:
     assert (padded.info.origin.position.x, padded.info.origin.position.y) == (0.0, 0.0)
     np.testing.assert_array_equal(padded.data[2], [-1, -1, 0, 100, -1])
     assert (padded.data[[0, 1, 3]] == -1).all()
+
+
+def test_a_mapper_exception_loses_one_scan_not_the_session(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A bug inside the mapper on one scan is counted, named and logged; the node keeps
+    mapping the following scans and the pose stays right."""
+    rt, sim, slam, _ = _slam_sim()
+    rt.scheduler.run_until(2.0)
+    assert slam.mapper is not None
+    real = slam.mapper.process_scan
+    calls = [0]
+
+    def flaky(*args: object, **kwargs: object) -> bool:
+        calls[0] += 1
+        if calls[0] == 3:
+            raise ValueError("PrecomputedGrids needs at least one point")
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    slam.mapper.process_scan = flaky  # type: ignore[method-assign]
+    nodes_before = len(slam.mapper.nodes)
+    with caplog.at_level("ERROR"):
+        rt.scheduler.run_until(20.0)
+    sim.advance()
+    assert slam.scans_failed == 1
+    assert slam.last_problem.endswith(
+        "not mapped: ValueError: PrecomputedGrids needs at least one point")
+    assert "PrecomputedGrids" in caplog.text and "Traceback" in caplog.text
+    assert len(slam.mapper.nodes) > nodes_before + 5
+    assert _pose_error(sim, slam, rt) < 0.05

@@ -43,7 +43,11 @@ from navstack.core.errors import ConfigError
 WORLDS = ("office", "warehouse", "arena")
 STRATEGIES = ("explore_lite", "information_gain")
 SEEDS = (1, 2, 3, 4, 5)
-MAX_DURATION = {"office": 3000.0, "warehouse": 6000.0, "arena": 900.0}
+#: a run is stopped (FAILED) after this many simulated seconds: a net for a wedged run,
+#: not a speed test (BUDGET_RATIO is), so about 5x the reference or more (office 533 s,
+#: warehouse 1603 s, arena 9 s).  6000 s in the warehouse cut off explore_lite runs that
+#: had 96 % observed and were on their way home
+MAX_DURATION = {"office": 3000.0, "warehouse": 8000.0, "arena": 900.0}
 ROBOT = "turtlebot3_waffle_pi"
 BUDGET_RATIO = 2.0
 BUDGET_SUCCESSES = 14 / 15

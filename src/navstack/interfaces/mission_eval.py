@@ -158,7 +158,8 @@ class SlamLatency:
         p95 = percentile(lat, 95)
         return {"slam_map_latency_sim_p95_s": p95, "slam_map_build_s": build,
                 "slam_map_latency_p95_s": p95 + build, "slam_map_updates": len(self.publishes),
-                "slam_nodes": len(lat)}
+                "slam_nodes": len(lat),
+                "slam_scans_failed": self.stack.slam.scans_failed if self.stack.slam else 0}
 
     def close(self) -> None:
         self._sub.unsubscribe()

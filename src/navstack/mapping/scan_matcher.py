@@ -459,7 +459,7 @@ def coupled_covariance(grid: LikelihoodGrid, local: FloatArray, pose: FloatArray
     Hessian ``hessian`` (``J^T J`` of the smeared fit) knows that direction: its weakest
     eigenvector, in units of the perfect match's deviations ``unit`` (x, y, theta).
     When that direction is at least ``ratio`` times longer than the strongest (standard
-    deviations, the same test as the odometry edges' ``_degenerate``), the response is
+    deviations, the same test as the odometry edges' ``slam_links.degenerate``), the response is
     scored at ``-steps..steps`` unit steps along it and, as Karto's
     ``ComputePositionalCovariance`` does over its window, the offsets within ``drop``
     (a share of the points) of the best count, weighted by their score: their second

@@ -50,7 +50,7 @@ from navstack.mapping.fast_matcher import voxel_filter
 from navstack.mapping.free_space import seen_through
 from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.loop_closure import LoopCloser, tangent_covariance
-from navstack.mapping.occupancy import LogOddsGrid, ScanData
+from navstack.mapping.occupancy import LogOddsGrid
 from navstack.mapping.odometry_check import OdometryCheck, OdometryNoise, odometry_verdict
 from navstack.mapping.pose_graph import PoseGraph
 from navstack.mapping.recovery import predicted_link, wide_link
@@ -62,6 +62,15 @@ from navstack.mapping.scan_matcher import (
     match_scan,
     response_covariance,
 )
+from navstack.mapping.slam_links import (
+    GAP_STRONG_RESPONSE,
+    degenerate,
+    distance,
+    fuse,
+    gap_choice,
+    weak_part,
+)
+from navstack.mapping.slam_maps import NodeMaps
 from navstack.mapping.slam_params import SlamParams
 
 FloatArray = NDArray[np.float64]
@@ -71,11 +80,6 @@ LINK_WINDOW_SIGMAS = 3.0
 #: a scan without odometry is predicted by the last motion, its translation scaled by
 #: the elapsed time at most this many times (:meth:`SlamMapper._motion_prediction`)
 PREDICTION_MAXIMUM_SCALE = 1.5
-#: a scan without odometry keeps the local fit around its prediction when the wide
-#: search found nothing only if it scores at least this share of the typical link
-#: response (:func:`_gap_choice`); a strong fit is at least ``GAP_STRONG_RESPONSE``
-GAP_WEAK_RESPONSE = 0.5
-GAP_STRONG_RESPONSE = 0.9
 #: the robot's seen speed and step (:meth:`SlamMapper._seen_speed`, ``_seen_step``)
 #: bound the wide search once this many were measured.  Ten let the first gap scans of
 #: a slow robot be searched ``odometry_maximum_speed`` times the gap away (Intel with
@@ -145,19 +149,11 @@ class SlamStats:
     #: scan numbers placed by the wide search rather than the local match
     recovered_scans: list[int] = field(default_factory=list)
     #: scan numbers without odometry over their step whose wide search was ambiguous
-    #: (several fits within the reach; placed by :func:`_gap_choice`, tied robustly)
+    #: (several fits within the reach; placed by
+    #: :func:`~navstack.mapping.slam_links.gap_choice`, tied robustly)
     ambiguous_scans: list[int] = field(default_factory=list)
 
 
-@dataclass
-class _MapCache:
-    """The grid :meth:`SlamMapper.build_map` built last, and what it holds."""
-
-    resolution: float
-    count: int
-    poses: FloatArray
-    last_node: ScanNode
-    grid: LogOddsGrid
 
 
 class SlamMapper:
@@ -209,12 +205,8 @@ class SlamMapper:
         self._responses: list[float] = []  # responses of the last ordinary links
         self._closure_edges: list[int] = []  # edge numbers of the loop closures
         self._closure_events = 0
-        self._live_grid: LogOddsGrid | None = None  # live_map's kept grid
-        self._live_count = 0
-        self._live_poses = np.zeros((0, 3))
-        self._map_cache: _MapCache | None = None
-        self.map_builds = [0, 0]
-        """Maps built by :meth:`build_map` incrementally / from scratch."""
+        self.maps = NodeMaps(params, laser)
+        """The node scans drawn into maps (:meth:`live_map`, :meth:`build_map`)."""
         self._scan_count = 0
         self._start_override: FloatArray | None = None
         self._restart = False  # next scan starts a new odometry frame (after a reload)
@@ -404,7 +396,7 @@ class SlamMapper:
             if match is not None and match.response >= p.link_match_minimum_response_fine:
                 odo_cov = self._odometry_noise.covariance(
                     se2_between(self._poses[last], pose))
-                pose = _fuse(pose, odo_cov, match.pose,
+                pose = fuse(pose, odo_cov, match.pose,
                              tangent_covariance(match.covariance, match.pose[2]))
         self.last_scan = (last, se2_between(self._poses[last], pose))
 
@@ -428,7 +420,7 @@ class SlamMapper:
             if match is None or match.response < 0.9 * self.typical_response():
                 radius = check.search_radius(p, False, stamp - self.nodes[last].stamp,
                                              self._seen_speed(), self._seen_step(),
-                                             _distance(guess, self._poses[last]))
+                                             distance(guess, self._poses[last]))
                 wide = wide_link(self, points, guess, radius, self._running)
                 if wide is not None and (match is None or wide.response > match.response):
                     self.stats.wide_recoveries += 1
@@ -705,7 +697,7 @@ class SlamMapper:
         typical = self.typical_response()
         radius = check.search_radius(p, restarting, node.stamp - self.nodes[placed_id].stamp,
                                      self._seen_speed(), self._seen_step(),
-                                     _distance(guess, self._poses[placed_id]))
+                                     distance(guess, self._poses[placed_id]))
         if p.use_scan_matching and not sparse and (check.suspect or restarting or failed
                                                    or missing):
             query = node.points
@@ -714,12 +706,12 @@ class SlamMapper:
             if missing:
                 # no odometry over the step: always search as far as the robot could
                 # have moved (a strong local fit around a guessed motion is often a
-                # corridor's alias), then choose (:func:`_gap_choice`)
+                # corridor's alias), then choose (:func:`~navstack.mapping.slam_links.gap_choice`)
                 full = check.search_radius(p, restarting, node.stamp
                                            - self.nodes[placed_id].stamp, self._seen_speed())
                 wide, ambiguous, radius = self._gap_search(query, guess, radius, full,
                                                            reference, typical)
-                chosen = _gap_choice(match, wide, ambiguous, typical)
+                chosen = gap_choice(match, wide, ambiguous, typical)
                 if ambiguous and chosen is not None:
                     self.stats.ambiguous_scans.append(self.stats.scans_received - 1)
             else:
@@ -742,11 +734,11 @@ class SlamMapper:
         if match is not None and matched:
             pose = match.pose
             ratio = p.link_match_weak_direction_ratio
-            if ratio > 0.0 and not (missing or restarting or check.suspect) and _degenerate(
+            if ratio > 0.0 and not (missing or restarting or check.suspect) and degenerate(
                     match.covariance, self.match_unit(), ratio):
                 # a degenerate match: its flat directions are noise, the odometry's
                 # prediction decides there (information-weighted, as for skipped scans)
-                pose = _fuse(guess, self._odometry_noise.covariance(
+                pose = fuse(guess, self._odometry_noise.covariance(
                     se2_between(self._poses[prev_id], guess)), pose,
                     tangent_covariance(match.covariance, pose[2]))
             cov = tangent_covariance(match.covariance, pose[2])
@@ -799,7 +791,7 @@ class SlamMapper:
             self._last_placed = node.node_id
         if (p.use_odometry_edges and matched and not restarting and not check.suspect
                 and odom is not None and np.isfinite(prev_odom).all()):
-            degenerate = _degenerate(cov, self.match_unit())
+            weak_match = degenerate(cov, self.match_unit())
             # the scale is learned from well-conditioned matches only: along a corridor
             # or across an open space the match is what is uncertain (its pull-back along
             # walls that run out of range taught a wrong scale: simulated campus ATE 0.059
@@ -807,16 +799,16 @@ class SlamMapper:
             # odometry_noise_from_degenerate_matches is off (there the disagreement is the
             # match's error: a short-range lidar's sparse scans made good wheel odometry
             # look 5x worse than it is)
-            if p.odometry_noise_from_degenerate_matches or not degenerate:
+            if p.odometry_noise_from_degenerate_matches or not weak_match:
                 self._odometry_noise.observe(se2_between(prev_odom, odom),
                                              se2_between(self._poses[prev_id], pose),
-                                             scale=not degenerate)
+                                             scale=not weak_match)
             step = se2_between(prev_odom, odom)
             if p.odometry_scale_correction:
                 step = self._odometry_noise.calibrated_step(step)
             odo_cov = self._odometry_noise.covariance(step)
             if self._odometry_noise.calibrated and (p.odometry_edges_on_every_link or (
-                    degenerate and float(np.max(np.linalg.eigvals(
+                    weak_match and float(np.max(np.linalg.eigvals(
                         cov @ np.linalg.inv(odo_cov)).real)) >= 0.1)):
                 # the odometry as its own constraint where the scan match is degenerate
                 # (along a corridor, in an open hall: Zhang, Kaess & Singh, ICRA 2016)
@@ -828,7 +820,7 @@ class SlamMapper:
                 # heading and the lateral position -- far better than wheels do.
                 odo_info = np.asarray(np.linalg.inv(odo_cov), float)
                 if p.odometry_edge_weak_directions:
-                    odo_info = _weak_part(odo_info, cov, self.match_unit())
+                    odo_info = weak_part(odo_info, cov, self.match_unit())
                 self.graph.add_edge(prev_id, node.node_id, step, odo_info,
                                     robust_kernel=p.odometry_edge_robust_kernel,
                                     kernel="cauchy")
@@ -1070,187 +1062,17 @@ class SlamMapper:
 
     def live_map(self, recent: Sequence[tuple[NDArray[np.floating], FloatArray]] = ()
                  ) -> LogOddsGrid:
-        """The map while mapping, cheap enough to publish every second: the node scans
-        are added to a kept grid as they come (all of them again only when the graph
-        moved an integrated node by more than half a cell or a fifth of a degree -- a
-        loop closure), and a copy of it gets the free space of the ``recent`` scans
-        ``(ranges, map pose)`` on top (``clear_only``: a person who walked away is
-        cleared by the latest scans, not only by the next node's).  The SLAM node
-        publishes it without ``recent``: in the office route that overlay eroded walls
-        the planner then routed through (docs/mapping.md, "Online")."""
-        res = self.params.resolution
-        poses = self.poses()
-        n_done = self._live_count
-        if self._live_grid is None or n_done > poses.shape[0] or (n_done and _moved(
-                self._live_poses[:n_done], poses[:n_done], 0.5 * res, math.radians(0.2))):
-            self._live_grid = LogOddsGrid(res)
-            n_done = 0
-        grid = self._live_grid
-        if poses.shape[0] > n_done:
-            self._integrate(grid, poses[n_done:], [n.ranges for n in self.nodes[n_done:]])
-            self._live_count = poses.shape[0]
-            self._live_poses = poses.copy()
-        if not recent:
-            return grid
-        out = grid.copy()
-        self._integrate(out, np.array([pose for _, pose in recent]),
-                        [ranges for ranges, _ in recent], clear_only=True)
-        return out
-
-    def _integrate(self, grid: LogOddsGrid, poses: FloatArray,
-                   ranges: Sequence[NDArray[np.floating]], clear_only: bool = False) -> None:
-        usable = min(self.laser.range_max, self.params.max_laser_range)
-        full_circle = bool(np.ptp(self.laser.angles) > 1.9 * math.pi)
-        scans = [ScanData(drop_isolated_no_returns(np.asarray(r, dtype=float),
-                                                   self.laser.range_min,
-                                                   self.laser.range_max, full_circle),
-                          self.laser.angles, self.laser.range_min, self.laser.range_max)
-                 for r in ranges]
-        grid.integrate_scans(poses, scans, usable, sensor_pose=self.laser.mount,
-                             clear_only=clear_only)
+        """The map while mapping (:meth:`NodeMaps.live`)."""
+        return self.maps.live(self.poses(), self.nodes, recent)
 
     def integrate_into(self, grid: LogOddsGrid, poses: FloatArray) -> None:
         """Draw every node's scan into ``grid`` at ``poses`` (N, 3) instead of its own
         (a map of the graph moved as a whole, e.g. aligned for scoring)."""
-        self._integrate(grid, np.asarray(poses, dtype=np.float64),
-                        [node.ranges for node in self.nodes])
+        self.maps.integrate(grid, np.asarray(poses, dtype=np.float64),
+                            [node.ranges for node in self.nodes])
 
     def build_map(self, resolution: float | None = None, *,
                   incremental: bool = True) -> LogOddsGrid:
-        """Occupancy grid of all node scans at their optimised poses.
-
-        The grid of the previous call is kept: when the nodes it holds are still the
-        first nodes, at exactly the same poses (no loop closure or relinearisation moved
-        them), only the new nodes' scans are added to it -- the same log-odds updates in
-        the same order as a rebuild, on the same lattice (world (0, 0)), so the same map,
-        at a cost that no longer grows with the number of nodes.  ``incremental=False``
-        always rebuilds from every node.  (:meth:`live_map`, the published map, keeps
-        its own grid and tolerates half a cell of pose change before it redraws.)
-        """
-        res = self.params.resolution if resolution is None else resolution
-        if not self.nodes:
-            return LogOddsGrid(res)
-        poses = self.poses()
-        n = min(len(self.nodes), poses.shape[0])  # asynchronous SLAM may be adding one
-        poses = poses[:n]
-        if n == 0:
-            return LogOddsGrid(res)
-        cache = self._map_cache if incremental else None
-        start = 0
-        if (cache is not None and cache.resolution == res and 0 < cache.count <= n
-                and self.nodes[cache.count - 1] is cache.last_node
-                and np.array_equal(poses[:cache.count], cache.poses)):
-            grid, start = cache.grid, cache.count
-        else:
-            grid = LogOddsGrid(res)
-        if start < n:
-            self._integrate(grid, poses[start:], [node.ranges for node in self.nodes[start:n]])
-        if incremental:
-            self._map_cache = _MapCache(res, n, poses.copy(), self.nodes[n - 1], grid)
-            self.map_builds[0 if start else 1] += 1
-            return grid.copy()
-        return grid
-
-
-def _gap_choice(local: MatchResult | None, wide: MatchResult | None, ambiguous: bool,
-                typical: float) -> MatchResult | None:
-    """The fit of a scan with no odometry over its step (a gap): ``local`` around the
-    motion prediction, ``wide`` the best fit within the robot's reach
-    (:func:`~navstack.mapping.recovery.predicted_link`), ``ambiguous`` when another fit
-    there scores almost as well, ``typical`` the links' typical response.
-
-    * a unique wide fit wins (with a guessed motion a strong local fit is often an
-      alias along a corridor: Intel, every second interval without odometry, 13 of the
-      first 150 gap scans were placed 0.3-1.2 m off that way);
-    * an ambiguous one loses to a strong local fit (``GAP_STRONG_RESPONSE`` times the
-      typical response: the prediction was right; in the ACES corridors the ambiguous
-      wide fits were often the 180 degree turned corridor), else it wins;
-    * without any wide fit the local one is kept only if it is not weak
-      (``GAP_WEAK_RESPONSE``): a weak fit around a guess that is tens of degrees off
-      (ACES scan 73: 55 degrees) bent the whole map, a scan left unplaced (tied
-      loosely, :meth:`SlamMapper._add_linked_node`) does not."""
-    if wide is None:
-        return local if local is not None and local.response >= GAP_WEAK_RESPONSE * typical \
-            else None
-    if ambiguous and local is not None and local.response >= GAP_STRONG_RESPONSE * typical:
-        return local
-    return wide
-
-
-def _distance(a: FloatArray, b: FloatArray) -> float:
-    """Distance between the positions of two poses."""
-    return math.hypot(float(a[0] - b[0]), float(a[1] - b[1]))
-
-
-def _fuse(a: FloatArray, cov_a: FloatArray, b: FloatArray, cov_b: FloatArray) -> FloatArray:
-    """Information-weighted mean of two poses (covariances in their tangent spaces, taken
-    as the same frame: the poses are centimetres apart)."""
-    d = se2_between(a, b)
-    info_a, info_b = np.linalg.inv(cov_a), np.linalg.inv(cov_b)
-    step = np.linalg.solve(info_a + info_b, info_b @ d)
-    return se2_compose(a, step)
-
-
-def _moved(a: FloatArray, b: FloatArray, distance: float, angle: float) -> bool:
-    """Did any pose move by more than ``distance`` or ``angle``?"""
-    d = b - a
-    return bool(np.any(np.hypot(d[:, 0], d[:, 1]) > distance)
-                or np.any(np.abs(np.remainder(d[:, 2] + math.pi, 2 * math.pi) - math.pi)
-                          > angle))
-
-
-def drop_isolated_no_returns(ranges: FloatArray, range_min: float, range_max: float,
-                             wrap: bool, run: int = 2) -> FloatArray:
-    """``ranges`` with every run of at most ``run`` beams without a return (at or beyond
-    ``range_max``) between two beams with returns set to NaN (dropped).
-
-    A map clears along no-return beams up to the usable range (slam_toolbox does); a
-    single beam that misses its wall (dropout, a dark or glossy spot) would cut a free
-    line through the wall and far behind it -- a gap the planner takes.  An open
-    direction (a door, a long corridor) spans many beams and is still cleared."""
-    r = np.array(ranges, dtype=np.float64)
-    ret = np.isfinite(r) & (r >= range_min) & (r < range_max)
-    none = ~ret & ~np.isnan(r) & ~(r < range_min)
-    n = r.size
-    idx = np.flatnonzero(none)
-    if idx.size == 0 or n < 3:
-        return r
-    # runs of consecutive no-return beams
-    breaks = np.flatnonzero(np.diff(idx) > 1)
-    starts = np.r_[idx[0], idx[breaks + 1]]
-    ends = np.r_[idx[breaks], idx[-1]]
-    for a, b in zip(starts, ends, strict=True):
-        if b - a + 1 > run:
-            continue
-        left, right = a - 1, b + 1
-        if not wrap and (left < 0 or right >= n):
-            continue
-        if ret[left % n] and ret[right % n]:
-            r[a:b + 1] = np.nan
-    return r
-
-
-def _degenerate(cov: FloatArray, unit: FloatArray, ratio: float = 3.0) -> bool:
-    """Is a match covariance (scaled by the perfect match's deviations ``unit``) at least
-    ``ratio`` times longer in its weakest direction than in its strongest?"""
-    scaled = cov / (unit[:, None] * unit[None, :])
-    w = np.linalg.eigvalsh(0.5 * (scaled + scaled.T))
-    return bool(w[-1] >= ratio * ratio * max(float(w[0]), 1e-12))
-
-
-def _weak_part(information: FloatArray, cov: FloatArray, unit: FloatArray,
-               ratio: float = 3.0) -> FloatArray:
-    """``information`` restricted to the weak directions of a match covariance ``cov``
-    (those at least ``ratio`` times longer than its strongest, measured in the perfect
-    match's deviations ``unit``): ``P I P`` with ``P`` the projector on them, plus a
-    negligible information (a thousand ``unit`` deviations) elsewhere so that it stays
-    positive definite."""
-    s_inv = 1.0 / unit
-    scaled = cov * s_inv[:, None] * s_inv[None, :]
-    w, v = np.linalg.eigh(0.5 * (scaled + scaled.T))
-    weak = v[:, w >= ratio * ratio * max(float(w[0]), 1e-12)]
-    proj = weak @ weak.T
-    info_scaled = information * unit[:, None] * unit[None, :]
-    part = proj @ info_scaled @ proj
-    part = 0.5 * (part + part.T) * s_inv[:, None] * s_inv[None, :]
-    return part + np.diag(1.0 / (1e3 * unit) ** 2)
+        """Occupancy grid of all node scans at their optimised poses
+        (:meth:`NodeMaps.build`)."""
+        return self.maps.build(self.poses(), self.nodes, resolution, incremental=incremental)

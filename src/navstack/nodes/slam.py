@@ -98,6 +98,8 @@ class SlamNode(Node):
         self.params = params or SlamParams()
         self.mapper: SlamMapper | None = None
         self.scans_dropped = 0
+        self.scans_failed = 0
+        """Scans the mapper raised on: counted, logged, skipped (mapping goes on)."""
         self.last_problem = ""
         self.maps_published = 0
         self._pending: tuple[np.ndarray, np.ndarray, float] | None = None
@@ -173,7 +175,7 @@ class SlamNode(Node):
         odom_arr = np.array([odom.x, odom.y, odom.theta])
         ranges = np.asarray(scan.ranges, np.float32)
         if p.synchronous:
-            if self.mapper.process_scan(ranges, odom_arr, stamp) and not self._mapped:
+            if self._map_scan(ranges, odom_arr, stamp) and not self._mapped:
                 self._mapped = True
                 self.publish_map()  # navigation needs a first map right away
             return
@@ -186,8 +188,23 @@ class SlamNode(Node):
             self._worker.start()
 
     def _process_async(self, ranges: np.ndarray, odom: np.ndarray, stamp: float) -> None:
+        self._map_scan(ranges, odom, stamp)
+
+    def _map_scan(self, ranges: np.ndarray, odom: np.ndarray, stamp: float) -> bool:
+        """Give one scan to the mapper; True when it became a node.  An exception inside
+        the mapper (a bug met on input nobody foresaw) loses that scan, not the session:
+        it is counted in ``scans_failed``, named in ``last_problem`` and logged with its
+        traceback, and the next scan is mapped as usual -- the navigation and the mission
+        above keep running on the map built so far."""
         assert self.mapper is not None
-        self.mapper.process_scan(ranges, odom, stamp)
+        try:
+            return self.mapper.process_scan(ranges, odom, stamp)
+        except Exception as exc:  # any mapper bug: keep the session alive
+            self.scans_failed += 1
+            self.last_problem = (f"scan at t={stamp:.3f} not mapped: "
+                                 f"{type(exc).__name__}: {exc}")
+            self.log.exception(f"{self.last_problem} ({self.scans_failed} so far)")
+            return False
 
     def wait_idle(self, timeout: float = 10.0) -> None:
         """Block until the async worker has finished its scan (tests, shutdown)."""
