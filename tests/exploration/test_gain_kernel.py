@@ -1,5 +1,6 @@
-"""The information-gain ray kernel on precomputed beam steps counts exactly what the
-per-step ray casting counted (the reference below is the kernel it replaced)."""
+"""The information-gain ray kernel on precomputed beam steps (on a grid framed by
+ray-stopping cells) counts exactly what the per-step ray casting counted (the reference
+below is the kernel it replaced)."""
 
 from __future__ import annotations
 
@@ -57,9 +58,8 @@ def _compare(unknown: NDArray[np.bool_], blocked: NDArray[np.bool_], rows: NDArr
              cols: NDArray[np.int64], offsets: NDArray[np.int64], range_cells: float,
              beams: int) -> None:
     s_ref = np.zeros(unknown.shape, np.int32)
-    s_new = np.zeros(unknown.shape, np.int32)
     want = _reference(unknown, blocked, rows, cols, offsets, range_cells, beams, s_ref)
-    got = _union(_codes(unknown, blocked), rows, cols, offsets, range_cells, beams, s_new)
+    got, s_new = _union(_codes(unknown, blocked), rows, cols, offsets, range_cells, beams)
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(s_new, s_ref)  # the same cells, tagged by the same group
 
@@ -160,3 +160,17 @@ def test_visible_unknown_and_along_match_the_previous_functions() -> None:
                            sensor_range / 0.05,
                            beams, np.zeros((h, w), np.int32))[0] for k in range(r.size)]
         assert list(visible_unknown(view, r, c, sensor_range, beams)) == want
+
+
+def test_union_matches_for_viewpoints_off_the_grid() -> None:
+    """A viewpoint outside the grid: its beams count from where they enter it, as before
+    (the frame grows by the distance outside)."""
+    rng = np.random.default_rng(11)
+    h, w = 40, 50
+    unknown = rng.random((h, w)) < 0.7
+    blocked = rng.random((h, w)) < 0.02
+    rows = np.array([-1, -30, 45, 20, 200, 39], np.int64)
+    cols = np.array([10, -2, 49, 50, 25, -1], np.int64)
+    for range_cells in (70.0, 12.0, 3.0):
+        _compare(unknown, blocked, rows, cols, np.arange(rows.size + 1, dtype=np.int64),
+                 range_cells, 180)

@@ -35,10 +35,9 @@ def visible_unknown(view: GridView, rows: NDArray[np.integer], cols: NDArray[np.
     if r.size == 0:
         return np.zeros(0, dtype=np.int64)
     stop = (~view.unknown & ~view.free) if blocked is None else blocked
-    stamp = np.zeros(view.shape, dtype=np.int32)
     # each cell its own group of one
     return _union(_codes(view.unknown, stop), r, c, np.arange(r.size + 1, dtype=np.int64),
-                  sensor_range / view.resolution, int(beams), stamp)
+                  sensor_range / view.resolution, int(beams))[0]
 
 
 @nb.njit(cache=True)
@@ -115,27 +114,43 @@ _TABLES: dict[tuple[float, int], tuple[NDArray[Any], ...]] = {}
 
 
 def _union(code: NDArray[np.uint8], rows: NDArray[np.int64], cols: NDArray[np.int64],
-           offsets: NDArray[np.int64], range_cells: float, beams: int,
-           stamp: NDArray[np.int32]) -> NDArray[np.int64]:
+           offsets: NDArray[np.int64], range_cells: float, beams: int
+           ) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
     """Per group ``g`` (points ``offsets[g]:offsets[g + 1]``): unknown cells (``code``,
-    :func:`_codes`) visible from any of its points, each counted once; ``stamp`` marks
-    the cells counted (a cell of group ``g`` holds ``g + 1``)."""
+    :func:`_codes`) visible from any of its points, each counted once; and the stamps
+    of the cells counted (a cell of group ``g`` holds ``g + 1``, 0 where none counted).
+
+    The kernel runs on ``code`` framed by cells that stop a ray, as wide as a beam
+    reaches beyond the grid: a beam leaving the grid stopped there before too, and no
+    step needs a bounds check."""
     key = (float(range_cells), int(beams))
     table = _TABLES.get(key)
     if table is None:
         table = _TABLES[key] = _beam_table(range_cells, beams)
     dr_b, dc_b, tr, tc, ts, amb, count = table
-    return _union_kernel(code, rows, cols, offsets, dr_b, dc_b, tr, tc, ts, amb, count, stamp)
+    h, w = code.shape
+    # a flagged step lands at most one cell beyond its table entry
+    pad = int(max(np.abs(tr).max(), np.abs(tc).max())) + 1
+    if rows.size:  # viewpoints off the grid: their beams start farther out
+        pad += max(0, -int(rows.min()), int(rows.max()) - h + 1, -int(cols.min()),
+                   int(cols.max()) - w + 1)
+    framed = np.full((h + 2 * pad, w + 2 * pad), 2, dtype=np.uint8)
+    framed[pad:pad + h, pad:pad + w] = code
+    stamp = np.zeros(framed.shape, dtype=np.int32)
+    wide = w + 2 * pad
+    out = _union_kernel(framed.reshape(-1), wide, pad, rows, cols, offsets, dr_b, dc_b,
+                        tr * wide + tc, ts, amb, count, stamp.reshape(-1))
+    return out, stamp[pad:pad + h, pad:pad + w]
 
 
 @nb.njit(cache=True)
-def _union_kernel(code: NDArray[np.uint8], rows: NDArray[np.int64], cols: NDArray[np.int64],
-                  offsets: NDArray[np.int64], dr_b: NDArray[np.float64],
-                  dc_b: NDArray[np.float64], tr: NDArray[np.int64], tc: NDArray[np.int64],
-                  ts: NDArray[np.int64], amb: NDArray[np.bool_], count: NDArray[np.int64],
-                  stamp: NDArray[np.int32]) -> NDArray[np.int64]:
-    """:func:`_union` on :func:`_beam_table`'s steps."""
-    h, w = code.shape
+def _union_kernel(code: NDArray[np.uint8], wide: int, pad: int, rows: NDArray[np.int64],
+                  cols: NDArray[np.int64], offsets: NDArray[np.int64],
+                  dr_b: NDArray[np.float64], dc_b: NDArray[np.float64],
+                  step_at: NDArray[np.int64], ts: NDArray[np.int64], amb: NDArray[np.bool_],
+                  count: NDArray[np.int64], stamp: NDArray[np.int32]) -> NDArray[np.int64]:
+    """:func:`_union` on the framed grid (flat, rows ``wide`` long), with each kept
+    step's flat offset from the viewpoint ``step_at``."""
     groups = offsets.size - 1
     beams = count.size
     out = np.zeros(groups, dtype=np.int64)
@@ -147,21 +162,19 @@ def _union_kernel(code: NDArray[np.uint8], rows: NDArray[np.int64], cols: NDArra
             cc = cols[k]
             r0 = rr + 0.5
             c0 = cc + 0.5
+            at = (rr + pad) * wide + cc + pad
             for b in range(beams):
                 for j in range(count[b]):
                     if amb[b, j]:
-                        r = math.floor(r0 + dr_b[b] * ts[b, j])
-                        c = math.floor(c0 + dc_b[b] * ts[b, j])
+                        i = ((math.floor(r0 + dr_b[b] * ts[b, j]) + pad) * wide
+                             + math.floor(c0 + dc_b[b] * ts[b, j]) + pad)
                     else:
-                        r = rr + tr[b, j]
-                        c = cc + tc[b, j]
-                    if r < 0 or r >= h or c < 0 or c >= w:
-                        break
-                    v = code[r, c]
+                        i = at + step_at[b, j]
+                    v = code[i]
                     if v == 2:
                         break
-                    if v == 1 and stamp[r, c] != tag:
-                        stamp[r, c] = tag
+                    if v == 1 and stamp[i] != tag:
+                        stamp[i] = tag
                         n_seen += 1
         out[g] = n_seen
     return out
@@ -225,10 +238,9 @@ def visible_unknown_along(view: GridView, paths: list[NDArray[np.int64]],
     code = _codes(view.unknown, ~view.unknown & ~view.free)
     range_cells = sensor_range / view.resolution
     if seen_from is not None:
-        here = np.zeros(view.shape, dtype=np.int32)
-        _union(code, np.array([seen_from[0]], dtype=np.int64),
-               np.array([seen_from[1]], dtype=np.int64), np.array([0, 1]),
-               range_cells, int(beams), here)
+        _, here = _union(code, np.array([seen_from[0]], dtype=np.int64),
+                         np.array([seen_from[1]], dtype=np.int64), np.array([0, 1]),
+                         range_cells, int(beams))
         code[here != 0] = 0  # seen from here: no longer counted (rays still pass)
         # the robot's cell itself (where every path ends) now sees nothing to count
         keep = (cells[:, 0] != seen_from[0]) | (cells[:, 1] != seen_from[1])
@@ -236,6 +248,5 @@ def visible_unknown_along(view: GridView, paths: list[NDArray[np.int64]],
             group = np.repeat(np.arange(len(paths)), np.diff(offsets))
             offsets[1:] = np.cumsum(np.bincount(group[keep], minlength=len(paths)))
             cells = cells[keep]
-    stamp = np.zeros(view.shape, dtype=np.int32)
     return _union(code, np.ascontiguousarray(cells[:, 0]), np.ascontiguousarray(cells[:, 1]),
-                  offsets, range_cells, int(beams), stamp)
+                  offsets, range_cells, int(beams))[0]
