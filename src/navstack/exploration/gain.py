@@ -6,7 +6,8 @@ strategies for exploring indoor environments", IJRR 21(10), 2002: the area of th
 unexplored region visible from the candidate).  Rays pass through unknown cells
 (optimistic: unknown may be free) and stop at observed obstacles; each cell counts once.
 A numba kernel casts ``beams`` rays per viewpoint with a per-call stamp array, so many
-viewpoints cost no allocation.
+viewpoints cost no allocation; the rays' cells come from a table of offsets built once
+per (range, beams) (:func:`_beam_table`: the same cells as stepping each ray, tested).
 """
 
 from __future__ import annotations
@@ -57,7 +58,8 @@ def _beam_table(range_cells: float, beams: int) -> tuple[
     A beam of angle ``a = 2 pi b / beams`` from the centre of cell ``(R, C)`` samples
     every half cell: step ``s`` is in cell ``floor(R + 0.5 + dr s)``, ``floor(C + 0.5 +
     dc s)`` with ``dr, dc = sin(a) / 2, cos(a) / 2``.  That is ``R + floor(0.5 + dr s)``
-    -- an offset the same for every viewpoint -- unless ``0.5 + dr s`` is within 1e-6 of
+    -- an offset the same for every viewpoint (rows and columns below 2^30, where the
+    sum's rounding error stays under 1e-6) -- unless ``0.5 + dr s`` is within 1e-6 of
     an integer (and ``dr s`` no multiple of 0.5, which both sums hold exactly), where
     the floor of the float sum depends on how ``R + 0.5 + dr s`` rounds: such steps are
     flagged (``amb``) and computed per viewpoint as before.  A step in the same cell as
