@@ -232,3 +232,84 @@ def test_params_nav2_defaults_and_config_errors() -> None:
                                               key_path="FollowPath"))
     assert isinstance(built, RegulatedPurePursuitController)
     assert built.params.desired_linear_vel == 0.3
+
+
+# A footprint reaching far behind the centre (as the Waffle Pi's) beside obstacles its
+# rear corners sweep into: the old check projected (0, w) for 1 s, so its verdict changed
+# with the odometry's w -- the controller alternated "turn" and "collision" and the robot
+# crept round against the wall instead of failing (office explore_lite seed 4, 1355 s).
+_LONG_TAIL = Footprint.from_polygon([[-0.4, -0.15], [-0.4, 0.15], [0.1, 0.15], [0.1, -0.15]])
+
+
+def _with_obstacles(*polar: tuple[float, float], x0: float = 0.0) -> Costmap2D:
+    """Lethal cells at ``(r, phi)`` around ``(x0, 0)``."""
+    cm = _costmap()
+    for r, phi in polar:
+        cell = cm.world_to_map(x0 + r * math.cos(phi), r * math.sin(phi))
+        assert cell is not None
+        cm.data[cell[1], cell[0]] = 254
+    return cm
+
+
+@pytest.mark.parametrize("odom_w", [0.0, -0.2, -0.6, 0.2])
+def test_turn_in_place_goes_the_free_way_round(odom_w: float) -> None:
+    # carrot 1.6 rad to the right; turning right swings the rear-left corner into the
+    # obstacle at 2.5 rad after ~0.3 rad, the other way round (3.9 rad to turn) is free
+    cm = _with_obstacles((0.41, 2.5))
+    ctrl = RegulatedPurePursuitController(footprint=_LONG_TAIL)
+    cmd = ctrl.compute(Pose2D(), Twist2D(0.0, 0.0, odom_w), _ray(-1.6), cm)
+    assert ctrl.is_rotating_to_heading and ctrl.turn_sign == 1.0
+    assert cmd.vx == 0.0 and cmd.wz == pytest.approx(odom_w + 3.2 / 20.0)  # accel-limited
+    # without the obstacle it turns the shorter way, as Nav2
+    free = RegulatedPurePursuitController(footprint=_LONG_TAIL)
+    assert free.compute(Pose2D(), Twist2D(), _ray(-1.6), _costmap()).wz < 0.0
+    assert free.turn_sign == -1.0
+
+
+@pytest.mark.parametrize("odom_w", [0.0, -0.05, -0.2, 0.2])
+def test_turn_in_place_blocked_both_ways_fails_on_every_cycle(odom_w: float) -> None:
+    cm = _with_obstacles((0.41, 2.5), (0.41, -2.45))
+    ctrl = RegulatedPurePursuitController(footprint=_LONG_TAIL)
+    with pytest.raises(CollisionAhead, match=r"turning in place toward the path is blocked "
+                                             r"both ways: the robot footprint at \(0\.00, "
+                                             r"0\.00\) would reach lethal cost 254 after "
+                                             r"turning 0\.\d\d of 0\.82 rad the shorter way "
+                                             r"and after 0\.\d\d of 3\.90 rad the other way; "
+                                             r"back away from the obstacle") as err:
+        ctrl.compute(Pose2D(), Twist2D(0.0, 0.0, odom_w), _ray(-1.6), cm)
+    assert err.value.cost == 254 and ctrl.turn_sign == 0.0
+
+
+def test_turn_under_way_keeps_its_direction() -> None:
+    # started the long way round (left); half way the carrot is "shorter" to the left
+    # anyway, and before that the right stays blocked: no switching back and forth
+    cm = _with_obstacles((0.41, 2.5))
+    ctrl = RegulatedPurePursuitController(footprint=_LONG_TAIL)
+    for heading in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5):
+        cmd = ctrl.compute(Pose2D(0.0, 0.0, heading), Twist2D(0.0, 0.0, 0.05),
+                           _ray(-1.6), cm)
+        assert cmd.wz > 0.0, heading
+
+
+def test_turn_blocked_both_ways_backs_out_when_enabled() -> None:
+    cm = _with_obstacles((0.41, 2.5), (0.41, -2.45))
+    ctrl = RegulatedPurePursuitController({"back_out_speed": 0.1}, footprint=_LONG_TAIL)
+    cmd = ctrl.compute(Pose2D(), Twist2D(), _ray(-1.6), cm)
+    assert (cmd.vx, cmd.wz) == (-0.1, 0.0) and ctrl.is_backing_out
+    # 0.3 m backed out (back_out_max_distance): the turn fails as without backing out
+    moved = _with_obstacles((0.41, 2.5), (0.41, -2.45), x0=-0.2)  # the pin moves along
+    cmd = ctrl.compute(Pose2D(-0.2, 0.0, 0.0), Twist2D(-0.1), _ray(-1.6), moved)
+    assert (cmd.vx, cmd.wz) == (-0.1, 0.0)
+    moved = _with_obstacles((0.41, 2.5), (0.41, -2.45), x0=-0.3)
+    with pytest.raises(CollisionAhead, match=r"blocked both ways: .* and backing out is "
+                                             r"blocked or already 0\.30 m long; back away"):
+        ctrl.compute(Pose2D(-0.3, 0.0, 0.0), Twist2D(-0.1), _ray(-1.6), moved)
+    # a wall right behind: no backing out either
+    behind = _with_obstacles((0.41, 2.5), (0.41, -2.45), (0.45, math.pi))
+    ctrl = RegulatedPurePursuitController({"back_out_speed": 0.1}, footprint=_LONG_TAIL)
+    with pytest.raises(CollisionAhead, match="backing out is blocked"):
+        ctrl.compute(Pose2D(), Twist2D(), _ray(-1.6), behind)
+    # one way free again after backing out: it turns, and may back out again next time
+    free = RegulatedPurePursuitController({"back_out_speed": 0.1}, footprint=_LONG_TAIL)
+    assert free.compute(Pose2D(), Twist2D(), _ray(-1.6), _costmap()).wz < 0.0
+    assert not free.is_backing_out

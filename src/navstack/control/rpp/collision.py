@@ -17,6 +17,15 @@ the robot pose with Nav2's Euler steps and returns the first projected pose in c
 
 All projected poses are computed at once and costed in one numba call
 (:func:`navstack.costmap.footprint.footprint_costs`).
+
+:meth:`RPPCollisionChecker.first_collision_turning` (navstack addition) judges a turn in
+place by the angle it must sweep rather than by ``(0, w)`` projected for a time: the
+headings from the current one through ``angle``, one footprint step apart (the in-place
+step above, ``2 sin(resolution / 2 / r)`` rad), and the final heading.  The verdict then
+does not depend on the commanded ``w`` -- the time-based projection of a turn that a
+wall blocks flickered between "free" and "collision" as ``w`` varied with the odometry,
+so the controller neither turned nor failed (docs/decisions.md, "In-place turns judged
+by their sweep").
 """
 
 from __future__ import annotations
@@ -111,6 +120,31 @@ class RPPCollisionChecker:
         x, y, th = poses[k]
         return CollisionHit((float(x), float(y), float(th)), k * dt if k else 0.0,
                             int(cost[k]))
+
+    def first_collision_turning(self, costmap: Costmap2D, pose: Pose2D,
+                                angle: float) -> tuple[float, CollisionHit] | None:
+        """The first heading in collision while turning in place by ``angle`` [rad]
+        (signed) from ``pose``: ``(angle turned [rad], hit)`` with ``hit.time`` 0, or None
+        when the whole sweep is free (module docstring).  The current pose is checked
+        first (turned 0)."""
+        r = costmap.resolution
+        if self.footprint is not None:
+            r = max(r, self.footprint.circumscribed_radius)
+        step = 2.0 * math.sin(costmap.resolution / 2.0 / r)
+        n = max(1, math.ceil(abs(angle) / step))
+        turned = np.append(np.arange(n, dtype=np.float64) * step, abs(angle)) \
+            * math.copysign(1.0, angle)
+        poses = np.column_stack((np.full(len(turned), pose.x), np.full(len(turned), pose.y),
+                                 pose.theta + turned))
+        self.last_arc = poses[1:]
+        cost = self.costs(costmap, poses)
+        hit = np.nonzero((cost >= LETHAL_OBSTACLE) & (cost != NO_INFORMATION))[0]
+        if len(hit) == 0:
+            return None
+        k = int(hit[0])
+        x, y, th = poses[k]
+        return float(turned[k]), CollisionHit((float(x), float(y), float(th)), 0.0,
+                                              int(cost[k]))
 
     def cost_at(self, costmap: Costmap2D, x: float, y: float) -> int | None:
         """Cell cost at ``(x, y)`` (Nav2 ``costAtPose``), None off the map."""

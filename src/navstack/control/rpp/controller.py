@@ -23,7 +23,18 @@ Each :meth:`RegulatedPurePursuitController.compute` cycle, as Nav2's
 6. with ``use_collision_detection``, project ``(v, w)`` forward and raise
    :class:`~navstack.control.rpp.errors.CollisionAhead` (a ``NoValidControl``) naming the
    pose, the time and the cost when it would hit a lethal cell
-   (:mod:`~navstack.control.rpp.collision`).
+   (:mod:`~navstack.control.rpp.collision`).  A turn in place (step 4) is judged instead
+   by the whole angle it must sweep -- to within ``rotate_to_heading_min_angle`` of the
+   carrot, or to the goal heading -- and turns the other way round when only that way
+   is free (navstack addition; Nav2 projects ``(0, w)`` for
+   ``max_allowed_time_to_collision_up_to_carrot`` and always turns the shorter way).  A
+   turn blocked both ways raises at once, on every cycle, so the controller server fails
+   the goal after ``failure_tolerance`` and the navigator's recovery backs the robot
+   away; the time-based projection flickered as ``w`` followed the odometry, and a
+   TurtleBot pinned beside a wall crept round at 0.01 rad/s for 15 s before anything
+   gave up (docs/decisions.md, "In-place turns judged by their sweep").  With
+   ``back_out_speed`` > 0 a turn toward the path blocked both ways first backs straight
+   out (reverse projection free, at most ``back_out_max_distance``) until one way is free.
 
 Pose, velocity and plan are in the costmap frame (the controller server transforms).  A
 plan handed over again, e.g. re-transformed after TF moved, restarts pruning with a search
@@ -40,7 +51,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from navstack.control.rpp.collision import RPPCollisionChecker
+from navstack.control.rpp.collision import CollisionHit, RPPCollisionChecker
 from navstack.control.rpp.errors import CollisionAhead, CostmapTooSmall
 from navstack.control.rpp.params import RegulatedPurePursuitParams
 from navstack.control.rpp.path_handler import PathHandler
@@ -91,6 +102,14 @@ class RegulatedPurePursuitController(Controller):
         self._finished_cancelling = False
         self.is_rotating_to_heading = False
         """Whether the last command was a rotation in place."""
+        self.is_backing_out = False
+        """Whether the last command backed out of a turn blocked both ways
+        (``back_out_speed``)."""
+        self._back_out_from: tuple[float, float] | None = None
+        self.turn_sign = 0.0
+        """Direction of the current turn in place (+1 counter-clockwise, -1 clockwise; 0
+        when not turning): kept while that way stays free, so a turn started the long way
+        round does not switch back."""
         self.last_carrot: tuple[float, float] | None = None
         """Carrot of the last cycle in the costmap frame (Nav2 ``lookahead_point``)."""
         self.last_curvature = 0.0
@@ -137,6 +156,8 @@ class RegulatedPurePursuitController(Controller):
         self._cancelling = False
         self._finished_cancelling = False
         self._has_reached_xy_tolerance = False
+        self.turn_sign = 0.0
+        self._back_out_from = None
 
     def cancel(self) -> bool:
         """Request a stop; True once stopped (immediately without
@@ -167,6 +188,72 @@ class RegulatedPurePursuitController(Controller):
         if abs(w) > max_vel_to_stop:
             w = sign * max_vel_to_stop
         return 0.0, w
+
+    def _turn_in_place(self, angle: float, margin: float, velocity: Twist2D, pose: Pose2D,
+                       costmap: Costmap2D, toward: str) -> tuple[float, float]:
+        """Rotate to heading (:meth:`_rotate_to_heading`) the way whose sweep is free.
+
+        ``angle`` [rad] is the heading error, ``margin`` [rad] how close to it the turn
+        ends (``rotate_to_heading_min_angle`` toward the carrot, 0 to the goal heading).
+        Without collision detection: the shorter way, as Nav2.  Otherwise the shorter way
+        unless its sweep reaches lethal cost and the other way's does not (the direction
+        of the turn under way is tried first); both blocked raises ``CollisionAhead``
+        (module docstring, step 6)."""
+        p = self.params
+        if not p.use_collision_detection:
+            return self._rotate_to_heading(angle, velocity)
+        short = 1.0 if angle > 0.0 else -1.0
+        turn = {short: abs(angle), -short: 2.0 * math.pi - abs(angle)}
+        order = (-short, short) if self.turn_sign == -short else (short, -short)
+        hits: dict[float, tuple[float, CollisionHit]] = {}
+        for sign in order:
+            found = self.collision_checker.first_collision_turning(
+                costmap, pose, sign * max(turn[sign] - margin, 0.0))
+            if found is None:
+                self.turn_sign = sign
+                return self._rotate_to_heading(sign * turn[sign], velocity)
+            hits[sign] = found
+        self.turn_sign = 0.0
+        body = "footprint" if self.footprint is not None else "centre"
+        turned, hit = hits[short]
+        x, y, _ = hit.pose
+        if turned != 0.0 and toward == "path" and p.back_out_speed > 0.0:
+            backing = self._back_out(pose, costmap)
+            if backing is not None:
+                return backing
+        if turned == 0.0:
+            raise CollisionAhead(
+                f"RegulatedPurePursuitController detected collision ahead: the robot {body} "
+                f"at ({x:.2f}, {y:.2f}) is already in lethal cost {hit.cost}; clear the "
+                f"costmap or back out with a recovery", hit.pose, 0.0, hit.cost)
+        other, _ = hits[-short]
+        raise CollisionAhead(
+            f"RegulatedPurePursuitController detected collision ahead: turning in place "
+            f"toward the {toward} is blocked both ways: the robot {body} at ({x:.2f}, {y:.2f}) "
+            f"would reach lethal cost {hit.cost} after turning {abs(turned):.2f} of "
+            f"{max(turn[short] - margin, 0.0):.2f} rad the shorter way and after "
+            f"{abs(other):.2f} of {max(turn[-short] - margin, 0.0):.2f} rad the other way"
+            + (f", and backing out is blocked or already {p.back_out_max_distance:.2f} m long"
+               if p.back_out_speed > 0.0 and toward == "path" else "")
+            + "; back away from the obstacle",
+            hit.pose, abs(turned) / p.rotate_to_heading_angular_vel, hit.cost)
+
+    def _back_out(self, pose: Pose2D, costmap: Costmap2D) -> tuple[float, float] | None:
+        """``(-back_out_speed, 0)`` while the reverse projection (for
+        ``max_allowed_time_to_collision_up_to_carrot``) is free and this turn has backed
+        out less than ``back_out_max_distance``; else None."""
+        p = self.params
+        if self._back_out_from is None:
+            self._back_out_from = (pose.x, pose.y)
+        x0, y0 = self._back_out_from
+        if math.hypot(pose.x - x0, pose.y - y0) >= p.back_out_max_distance:
+            return None
+        if self.collision_checker.first_collision(
+                costmap, pose, -p.back_out_speed, 0.0, math.inf,
+                p.max_allowed_time_to_collision_up_to_carrot) is not None:
+            return None
+        self.is_backing_out = True
+        return -p.back_out_speed, 0.0
 
     def _cost_at_robot(self, pose: Pose2D, costmap: Costmap2D) -> float:
         cost = self.collision_checker.cost_at(costmap, pose.x, pose.y)
@@ -237,14 +324,19 @@ class RegulatedPurePursuitController(Controller):
         angle_to_path = math.atan2(heading_carrot[1], heading_carrot[0])
         if sign < 0.0:
             angle_to_path = normalize_angle(angle_to_path + math.pi)
+        self.is_backing_out = False
         if self._should_rotate_to_goal(carrot):
             self.is_rotating_to_heading = True
-            v, w = self._rotate_to_heading(float(plan[-1, 2]), velocity)
+            v, w = self._turn_in_place(float(plan[-1, 2]), 0.0, velocity, pose, costmap,
+                                       "goal heading")
         elif p.use_rotate_to_heading and abs(angle_to_path) > p.rotate_to_heading_min_angle:
             self.is_rotating_to_heading = True
-            v, w = self._rotate_to_heading(angle_to_path, velocity)
+            v, w = self._turn_in_place(angle_to_path, p.rotate_to_heading_min_angle, velocity,
+                                       pose, costmap, "path")
         else:
             self.is_rotating_to_heading = False
+            self.turn_sign = 0.0
+            self._back_out_from = None
             v = self.apply_constraints(curvature, self._cost_at_robot(pose, costmap), plan, sign)
             if self._cancelling:
                 v = velocity.vx - sign * p.cancel_deceleration / p.controller_frequency
@@ -261,7 +353,7 @@ class RegulatedPurePursuitController(Controller):
         self.last_carrot = (pose.x + c * carrot[0] - s * carrot[1],
                             pose.y + s * carrot[0] + c * carrot[1])
 
-        if p.use_collision_detection:
+        if p.use_collision_detection and not self.is_rotating_to_heading:
             self._check_collision(pose, v, w, math.hypot(*carrot), costmap)
         return Twist2D(v, 0.0, w)
 

@@ -11,7 +11,15 @@ elsewhere or lacks:
 * ``min_turning_radius`` (0 = none): for car-like (Ackermann) robots the commanded
   curvature is clamped to ``1 / min_turning_radius``; Nav2 has no such limit and relies on
   a kinematically feasible path.  A car cannot turn in place, so ``min_turning_radius > 0``
-  requires ``use_rotate_to_heading: false``.
+  requires ``use_rotate_to_heading: false``;
+* ``back_out_speed`` (0 = off, Nav2's behaviour) and ``back_out_max_distance`` (0.3 m, the
+  BackUp recovery's default distance): when the turn in place toward the path is blocked
+  both ways (the footprint would reach lethal cost turning either way round), back
+  straight out at ``back_out_speed`` [m/s] while the reverse projection is free, up to
+  ``back_out_max_distance`` per turn, instead of failing the goal for the navigator's
+  BackUp recovery -- a forward-only robot whose tail swings into a wall (the TurtleBot3
+  Waffle Pi) then answers a new goal at once (docs/decisions.md, "In-place turns judged
+  by their sweep").
 
 ``use_interpolation`` (Humble; removed later, when it became always on) chooses whether
 the carrot is interpolated on the path segment crossing the lookahead circle or is the
@@ -74,6 +82,8 @@ class RegulatedPurePursuitParams(Params):
     controller_frequency: float = Field(20.0, gt=0.0)
     xy_goal_tolerance: float = Field(0.25, ge=0.0)
     min_turning_radius: float = Field(0.0, ge=0.0)
+    back_out_speed: float = Field(0.0, ge=0.0)
+    back_out_max_distance: float = Field(0.3, gt=0.0)
 
     @model_validator(mode="after")
     def _check(self) -> Self:
