@@ -234,6 +234,20 @@ def test_roomy_cells_looked_up_locally_match_the_distance_transform(clearance: f
     assert (_clearance_offsets(0.05, clearance + 0.025) is None) == (clearance == _AMBIGUOUS)
 
 
+@pytest.mark.parametrize("res", [0.05, 0.025, 0.1, 0.07])
+def test_clearance_offsets_are_one_symmetric_run_of_columns_per_row(res: float) -> None:
+    """What the roomy lookup's running-count form relies on."""
+    from navstack.exploration.frontiers import _clearance_offsets
+
+    for clearance in np.linspace(0.03, 0.6, 40):
+        offsets = _clearance_offsets(res, float(clearance) + res / 2)
+        if offsets is None:
+            continue
+        for d in np.unique(offsets[:, 0]):
+            dc = np.sort(offsets[offsets[:, 0] == d, 1])
+            np.testing.assert_array_equal(dc, np.arange(-dc.max(), dc.max() + 1))
+
+
 @pytest.mark.parametrize(("density", "radius"), [(0.005, 6), (0.03, 3), (0.2, 1)])
 def test_nearest_within_picks_the_cell_the_distance_transform_picks(density: float,
                                                                     radius: int) -> None:

@@ -311,19 +311,34 @@ def _roomy_at(view: GridView, rows: IntArray, cols: IntArray, clearance: float) 
         box = (r0, int(rows.max()) + 1, c0, int(cols.max()) + 1)
         return _roomy(view, box, clearance)[rows - r0, cols - c0]
     occupied = ~view.unknown & ~view.free
-    return _clear_kernel(occupied, rows.astype(np.int64), cols.astype(np.int64), offsets)
+    # the offsets' distance grows with |column offset| along each row offset: per row
+    # offset they are one run of columns, -m..m
+    d_rows = np.unique(offsets[:, 0])
+    half = np.array([offsets[offsets[:, 0] == d, 1].max() for d in d_rows], dtype=np.int64)
+    return _clear_kernel(occupied, rows.astype(np.int64), cols.astype(np.int64),
+                         d_rows.astype(np.int64), half)
 
 
 @nb.njit(cache=True)
-def _clear_kernel(occupied: BoolArray, rows: IntArray, cols: IntArray,
-                  offsets: IntArray) -> BoolArray:
+def _clear_kernel(occupied: BoolArray, rows: IntArray, cols: IntArray, d_rows: IntArray,
+                  half: IntArray) -> BoolArray:
+    """Whether no occupied cell lies at row ``rows[i] + d_rows[k]`` within columns
+    ``cols[i] +- half[k]`` (off-grid cells are not occupied): a run is looked up in a
+    per-row running count of occupied cells, two reads instead of one per cell."""
     h, w = occupied.shape
+    run = np.zeros((h, w + 1), dtype=np.int32)  # run[r, c]: occupied cells left of c
+    for r in range(h):
+        for c in range(w):
+            run[r, c + 1] = run[r, c] + occupied[r, c]
     out = np.ones(rows.size, dtype=np.bool_)
     for i in range(rows.size):
-        for k in range(offsets.shape[0]):
-            r = rows[i] + offsets[k, 0]
-            c = cols[i] + offsets[k, 1]
-            if 0 <= r < h and 0 <= c < w and occupied[r, c]:
+        for k in range(d_rows.size):
+            r = rows[i] + d_rows[k]
+            if r < 0 or r >= h:
+                continue
+            lo = max(cols[i] - half[k], 0)
+            hi = min(cols[i] + half[k] + 1, w)
+            if lo < hi and run[r, hi] != run[r, lo]:
                 out[i] = False
                 break
     return out

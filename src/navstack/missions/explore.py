@@ -89,6 +89,8 @@ class Explore(MissionBehaviour):
         self._next_plan = 0.0
         self._start = 0.0
         self._markers = 0
+        # blacklist entry id -> (the entry, kept alive so its id stays its own; its points)
+        self._blacklist_points: dict[int, tuple[Any, tuple[Point, ...]]] = {}
         self.done_reason = ""
 
     def initialise(self) -> None:
@@ -257,8 +259,12 @@ class Explore(MissionBehaviour):
                                       Pose(Point(f.goal[0], f.goal[1], 0.0)),
                                       Vector3(size, size, size), _GREEN))
                 ident += 1
-        for e in self.explorer.blacklist.active:
-            pts = tuple(Point(float(x), float(y), 0.0) for x, y in e.points)
+        cached = self._blacklist_points
+        active = self.explorer.blacklist.active
+        for e in active:
+            if id(e) not in cached:  # an entry's cells never change: build its points once
+                cached[id(e)] = (e, tuple(Point(x, y, 0.0) for x, y in e.points.tolist()))
+            pts = cached[id(e)][1]
             markers.append(Marker(header, "blacklist", ident, Marker.POINTS, Marker.ADD,
                                   Pose(), Vector3(0.1, 0.1, 0.1), _RED, pts))
             ident += 1
@@ -266,6 +272,9 @@ class Explore(MissionBehaviour):
         markers += [Marker(header, "frontiers", k, action=Marker.DELETE)
                     for k in range(ident, self._markers)]
         self._markers = ident
+        if len(cached) > len(active):
+            keep = {id(e) for e in active}
+            self._blacklist_points = {k: v for k, v in cached.items() if k in keep}
         self._pub.publish(MarkerArray(tuple(markers)))
 
     def summary(self) -> dict[str, Any]:
