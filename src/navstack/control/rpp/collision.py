@@ -31,7 +31,7 @@ by their sweep").
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -98,11 +98,27 @@ class RPPCollisionChecker:
     def time_step(self, costmap: Costmap2D, linear_vel: float, angular_vel: float) -> float:
         """Projection step [s] (module docstring); ``inf`` when the robot is at rest."""
         if abs(linear_vel) < 0.01 and abs(angular_vel) > 0.01:
-            r = costmap.resolution
-            if self.footprint is not None:
-                r = max(r, self.footprint.circumscribed_radius)
-            return 2.0 * math.sin(costmap.resolution / 2.0 / r) / abs(angular_vel)
+            return self.turn_step(costmap) / abs(angular_vel)
         return costmap.resolution / abs(linear_vel) if linear_vel != 0.0 else math.inf
+
+    def turn_step(self, costmap: Costmap2D) -> float:
+        """Heading step [rad] of an in-place projection: the footprint's farthest point
+        moves by about one cell (module docstring)."""
+        r = costmap.resolution
+        if self.footprint is not None:
+            r = max(r, self.footprint.circumscribed_radius)
+        return 2.0 * math.sin(costmap.resolution / 2.0 / r)
+
+    def _first_lethal(self, costmap: Costmap2D, poses: FloatArray
+                      ) -> tuple[int, CollisionHit] | None:
+        """Index and hit of the first of ``poses`` in lethal cost (unknown is free)."""
+        cost = self.costs(costmap, poses)
+        hit = np.nonzero((cost >= LETHAL_OBSTACLE) & (cost != NO_INFORMATION))[0]
+        if len(hit) == 0:
+            return None
+        k = int(hit[0])
+        x, y, th = poses[k]
+        return k, CollisionHit((float(x), float(y), float(th)), 0.0, int(cost[k]))
 
     def first_collision(self, costmap: Costmap2D, pose: Pose2D, linear_vel: float,
                         angular_vel: float, carrot_dist: float,
@@ -112,14 +128,11 @@ class RPPCollisionChecker:
         arc = project_arc(pose, linear_vel, angular_vel, dt, max_time, carrot_dist)
         self.last_arc = arc
         poses = np.vstack(([pose.x, pose.y, pose.theta], arc))
-        cost = self.costs(costmap, poses)
-        hit = np.nonzero((cost >= LETHAL_OBSTACLE) & (cost != NO_INFORMATION))[0]
-        if len(hit) == 0:
+        found = self._first_lethal(costmap, poses)
+        if found is None:
             return None
-        k = int(hit[0])
-        x, y, th = poses[k]
-        return CollisionHit((float(x), float(y), float(th)), k * dt if k else 0.0,
-                            int(cost[k]))
+        k, hit = found
+        return replace(hit, time=k * dt if k else 0.0)
 
     def first_collision_turning(self, costmap: Costmap2D, pose: Pose2D,
                                 angle: float) -> tuple[float, CollisionHit] | None:
@@ -127,24 +140,18 @@ class RPPCollisionChecker:
         (signed) from ``pose``: ``(angle turned [rad], hit)`` with ``hit.time`` 0, or None
         when the whole sweep is free (module docstring).  The current pose is checked
         first (turned 0)."""
-        r = costmap.resolution
-        if self.footprint is not None:
-            r = max(r, self.footprint.circumscribed_radius)
-        step = 2.0 * math.sin(costmap.resolution / 2.0 / r)
+        step = self.turn_step(costmap)
         n = max(1, math.ceil(abs(angle) / step))
         turned = np.append(np.arange(n, dtype=np.float64) * step, abs(angle)) \
             * math.copysign(1.0, angle)
         poses = np.column_stack((np.full(len(turned), pose.x), np.full(len(turned), pose.y),
                                  pose.theta + turned))
         self.last_arc = poses[1:]
-        cost = self.costs(costmap, poses)
-        hit = np.nonzero((cost >= LETHAL_OBSTACLE) & (cost != NO_INFORMATION))[0]
-        if len(hit) == 0:
+        found = self._first_lethal(costmap, poses)
+        if found is None:
             return None
-        k = int(hit[0])
-        x, y, th = poses[k]
-        return float(turned[k]), CollisionHit((float(x), float(y), float(th)), 0.0,
-                                              int(cost[k]))
+        k, hit = found
+        return float(turned[k]), hit
 
     def cost_at(self, costmap: Costmap2D, x: float, y: float) -> int | None:
         """Cell cost at ``(x, y)`` (Nav2 ``costAtPose``), None off the map."""
