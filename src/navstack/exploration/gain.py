@@ -12,6 +12,7 @@ per (range, beams) (:func:`_beam_table`: the same cells as stepping each ray, te
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -111,8 +112,11 @@ def _codes(unknown: NDArray[np.bool_], blocked: NDArray[np.bool_]) -> NDArray[np
     return np.where(blocked, np.uint8(2), unknown.astype(np.uint8))
 
 
-_TABLES: dict[tuple[float, int], tuple[NDArray[Any], ...]] = {}
-""":func:`_beam_table` per (range in cells, beams): a strategy asks for one table."""
+@functools.lru_cache(maxsize=8)
+def _beam_table_cached(range_cells: float, beams: int) -> tuple[NDArray[Any], ...]:
+    """:func:`_beam_table` per (range in cells, beams), built once: a strategy asks for
+    one table (its tables are never written to)."""
+    return _beam_table(range_cells, beams)
 
 
 def _union(code: NDArray[np.uint8], rows: NDArray[np.int64], cols: NDArray[np.int64],
@@ -125,11 +129,7 @@ def _union(code: NDArray[np.uint8], rows: NDArray[np.int64], cols: NDArray[np.in
     The kernel runs on ``code`` framed by cells that stop a ray, as wide as a beam
     reaches beyond the grid: a beam leaving the grid stopped there before too, and no
     step needs a bounds check."""
-    key = (float(range_cells), int(beams))
-    table = _TABLES.get(key)
-    if table is None:
-        table = _TABLES[key] = _beam_table(range_cells, beams)
-    dr_b, dc_b, tr, tc, ts, amb, count = table
+    dr_b, dc_b, tr, tc, ts, amb, count = _beam_table_cached(float(range_cells), int(beams))
     h, w = code.shape
     # a flagged step lands at most one cell beyond its table entry
     pad = int(max(np.abs(tr).max(), np.abs(tc).max())) + 1

@@ -215,7 +215,6 @@ class SlamParams(Params):
     ceres_dogleg_type: str = "TRADITIONAL_DOGLEG"
     ceres_loss_function: str = "None"
 
-
     @property
     def map_free_thresh(self) -> float:
         """The ``free_thresh`` the map is rendered and saved with (``map_free_scans``)."""
