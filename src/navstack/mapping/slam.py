@@ -136,6 +136,8 @@ class SlamStats:
     loop_rejected_outliers: int = 0
     #: closures whose scan saw through the submap's static structure (aliases)
     loop_seen_through: int = 0
+    #: closures found at the edge of their search window (``loop_match_maximum_window_fraction``)
+    loop_window_edge: int = 0
     loop_unconfirmed: int = 0
     batch_optimizations: int = 0
     odometry_missing: int = 0

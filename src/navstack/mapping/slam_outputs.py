@@ -103,6 +103,7 @@ def summary(result: OfflineResult, files: Mapping[str, str] | None = None) -> di
                           "implausible": stats.loop_implausible,
                           "weak": stats.loop_weak,
                           "seen_through": stats.loop_seen_through,
+                          "window_edge": stats.loop_window_edge,
                           "outliers": stats.loop_rejected_outliers,
                           "unconfirmed": stats.loop_unconfirmed},
         "corridor_closures": stats.loop_corridor,

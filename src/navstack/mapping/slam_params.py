@@ -147,6 +147,11 @@ class SlamParams(Params):
     # alias and rejected (0 = off; mapping/loop_closure.py, docs/mapping.md "Aliased
     # closures")
     loop_match_maximum_seen_through_ratio: float = Field(0.3, ge=0.0)
+    # navstack: a (non-corridor) closure whose position lies farther from the window's
+    # centre than this share of the window's half-size on either axis is rejected: the
+    # score still rose towards the edge, the optimum may lie outside -- in a warehouse
+    # aisle the match slid along the racks (0 = off; docs/mapping.md "Loop windows")
+    loop_match_maximum_window_fraction: float = Field(0.0, ge=0.0, le=1.0)
     loop_closure_batch_distance: float = Field(0.5, gt=0.0)
     # navstack: odometry edges where a match is degenerate and their initial noise
     # (fractions of the motion), the speed and turn rate odometry may not exceed, the

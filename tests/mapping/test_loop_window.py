@@ -1,0 +1,62 @@
+"""A loop closure at the edge of its search window is not believed
+(``loop_match_maximum_window_fraction``; issue 16, warehouse; docs/mapping.md "Loop
+windows"): the correlative score still rose towards the edge, so the optimum may lie
+outside the window -- in the warehouse's aisles such matches slid 1.1-1.4 m along the
+racks with a good response."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navstack.mapping.fast_matcher import WideWindow
+from navstack.mapping.loop_closure import LoopCandidate
+from navstack.mapping.slam import LaserGeometry, SlamMapper
+from navstack.mapping.slam_params import SlamParams
+from navstack.sim.worlds import load_world
+
+ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+LASER = LaserGeometry(ANGLES, 0.1, 12.0)
+
+
+@pytest.fixture(scope="module")
+def office():
+    return load_world("office")
+
+
+def _ranges(world, pose) -> np.ndarray:
+    return world.cast_rays(pose[0], pose[1], pose[2], ANGLES, 0.1, 12.0, 0.0)
+
+
+@pytest.mark.parametrize(("fraction", "offset", "found"),
+                         [(0.0, 0.85, True), (0.8, 0.85, False), (0.8, 0.5, True)])
+def test_a_closure_at_the_edge_of_its_window_is_rejected(office, fraction: float,
+                                                         offset: float, found: bool) -> None:
+    """The office corridor mapped with 12 scans, revisited at x = 3.2 m; the guess is
+    ``offset`` metres along the corridor from the truth, the window +-1 m.  The match
+    finds the true pose (within 5 cm) either way; 0.85 of the half-window from the guess
+    is beyond ``loop_match_maximum_window_fraction`` 0.8 (counted as ``loop_window_edge``),
+    0.5 is not, and 0 turns the test off."""
+    params = SlamParams(minimum_time_interval=0.0, map_start_pose=[1.0, 7.5, 0.0],
+                        do_loop_closing=False, loop_match_maximum_window_fraction=fraction)
+    mapper = SlamMapper(params, LASER)
+    for k in range(12):
+        mapper.process_scan(_ranges(office, (1.0 + 0.5 * k, 7.5, 0.0)), (0.5 * k, 0.0, 0.0),
+                            float(k))
+    mapper.process_scan(_ranges(office, (3.2, 7.5, 0.0)), (2.2, 0.0, 0.0), 20.0)
+    node = len(mapper.nodes) - 1
+    loops = mapper.submaps
+    submap = loops.submaps.complete()[0]
+    truth_x = 3.2 - (1.0 + 0.5 * submap.anchor)  # the node in the anchor's frame
+    guess = np.array([truth_x + offset, 0.0, 0.0])
+    candidate = LoopCandidate(submap, guess, WideWindow(1.0, 1.0, 0.1), 0.0)
+    closure = loops.match(node, candidate, mapper._poses)
+    if found:
+        assert closure is not None and not closure.corridor
+        assert closure.measurement[0] == pytest.approx(truth_x, abs=0.05)
+        assert abs(closure.measurement[1]) < 0.05
+        assert mapper.stats.loop_window_edge == 0
+    else:
+        assert closure is None and mapper.stats.loop_window_edge == 1
