@@ -11,10 +11,12 @@ import math
 import numpy as np
 import pytest
 
+from navstack.benchmarks.slam_lds import lds_params
 from navstack.mapping.fast_matcher import WideWindow
 from navstack.mapping.loop_closure import LoopCandidate
 from navstack.mapping.slam import LaserGeometry, SlamMapper
 from navstack.mapping.slam_params import SlamParams
+from navstack.mapping.submaps import Submap
 from navstack.sim.worlds import load_world
 
 ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)
@@ -60,3 +62,23 @@ def test_a_closure_at_the_edge_of_its_window_is_rejected(office, fraction: float
         assert mapper.stats.loop_window_edge == 0
     else:
         assert closure is None and mapper.stats.loop_window_edge == 1
+
+
+def test_the_turtlebot3_searches_one_sigma_of_its_relative_uncertainty() -> None:
+    """The graph's sigma was ~3x the real error in the warehouse exploration (seed 2: the
+    guess 0.35 m off, sigma ~1.5 m); three sigmas made +-4-5 m windows that held the next
+    rack 3.5 m along, and a closure one rack off was accepted.  The TurtleBot3's file
+    searches one sigma: a 1.5 m sigma gives a +-1.5 m window (the default profile +-4.5 m),
+    and a closure at its edge is not believed (0.8)."""
+    tb3 = lds_params(np.zeros(3))
+    assert tb3.loop_search_drift_sigmas == 1.0
+    assert tb3.loop_match_maximum_window_fraction == 0.8
+    poses = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]])
+    covs = np.zeros((2, 3, 3))
+    covs[0] = np.diag([1e-6, 1e-6, 1e-8])
+    current = np.diag([1.5**2, 1.5**2, math.radians(2.0) ** 2])
+    for params, half in ((tb3, 1.5), (SlamParams(), 4.5)):
+        closer = SlamMapper(params, LASER).submaps
+        cand = closer._candidate(Submap(0, [0]), poses[1], current, poses, covs, 0.0)
+        assert cand.window.half_x == pytest.approx(half, rel=0.01)
+        assert cand.window.half_y == pytest.approx(half, rel=0.01)
