@@ -80,16 +80,28 @@ def test_walker_never_walks_into_a_robot_on_its_path() -> None:
     assert sim.collisions == 0
 
 
-def test_walker_with_no_way_past_holds_clear_of_the_robot() -> None:
+@pytest.mark.parametrize("dead_end", [False, True])
+def test_walker_with_no_way_past_makes_room(dead_end: bool) -> None:
     # a 1 m corridor: the robot stands on the path 0.8 m from the walker at its end and
-    # the walls leave no room to step round it, so the walker holds (as a person in a
-    # dead end would) -- closer than the yield margin, never touching the robot
+    # the walls leave no room to pass it (office explore_lite seed 1: a robot facing the
+    # walker at the corridor's west end).  The walker backs away beyond its path end, to
+    # the edge of the robot's yield radius, so the robot has room to move; in a dead end
+    # it backs up to the wall and holds there.  It never touches the robot or a wall.
     robot = Pose2D(PATH_END[0] - 0.8, PATH_END[1], 0.0)
-    sim, centres = stand(corridor(phase=5.0, width=1.0), robot, 20.0)
+    world = corridor(phase=5.0, width=1.0)
+    if dead_end:
+        world.occupied[:, 128:130] = True  # a wall at x = 6.4 .. 6.5
+    sim, centres = stand(world, robot, 20.0)
     gaps = np.hypot(centres[:, 0] - robot.x, centres[:, 1] - robot.y)
     assert gaps.min() >= contact_bound(sim) + 0.05 - 1e-6
     assert np.all(np.abs(centres[:, 1] - PATH_END[1]) + 0.3 <= 0.5)  # body off the walls
-    assert centres[:, 0].min() > robot.x
+    after = centres[round(8.0 / DT):]
+    if dead_end:
+        assert np.all(after[:, 0] + 0.3 <= 6.4 + 1e-9)
+        assert np.all(after[:, 0] > PATH_END[0])  # backed up against the wall
+    else:
+        first = int(np.argmax(gaps > 1.15))
+        assert 4.0 < first * DT < 8.0  # waited 4 s, then made room
     assert sim.collisions == 0
 
 

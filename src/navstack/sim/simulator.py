@@ -11,11 +11,14 @@ bounding circles — people and forklifts stop for a robot rather than walk thro
 and an obstacle held for ``turn_back_after`` (4 s) turns back along its path, so a
 face-off in a corridor always resolves.  When turning back would close in on a robot as
 well (a robot beside the end of a pingpong path, where both ways lead back past it, or
-robots on both sides) the obstacle instead walks on past it, yielding only within
-``pass_margin`` (0 m: its bounding circle stays 0.05 m off the robot's circumscribed
-circle) until it is clear of every robot's yield radius — a person squeezes past a robot
-that stands in the way rather than wait for it for good.  The run stays deterministic
-(the clocks, directions and hold times depend only on the simulated history).
+robots on both sides) the obstacle instead steps aside (up to ``sidestep_max``, 0.6 m)
+and walks on past it, yielding only within ``pass_margin`` (0 m: its bounding circle
+stays 0.05 m off the robot's circumscribed circle); where the robot stands too close to
+pass it backs away from the robot, off its path (up to ``step_away_max``, 1 m), so the
+robot can move.  Once clear of every robot's yield radius it walks back onto its path.
+A person squeezes past or makes room for a robot that stands in the way rather than wait
+for it for good.  The run stays deterministic (clocks, offsets, directions and hold
+times depend only on the simulated history).
 
 Contact model: a step whose footprint would overlap an obstacle is not taken — the robot
 stays where it was with zero velocity, as a real base stalls against a wall.  A blocked
@@ -111,6 +114,7 @@ class Simulator:
         self._obstacle_held = [0.0] * len(world.moving_obstacles)
         self._obstacle_near = [True] * len(world.moving_obstacles)
         self._obstacle_passing = [False] * len(world.moving_obstacles)
+        self._obstacle_backing = [False] * len(world.moving_obstacles)
         self._far_slack = [0.0] * len(world.moving_obstacles)
         k = robot.kinematics
         self.robot_speed_bound = math.hypot(max(abs(k.max_vel_x), abs(k.min_vel_x or 0.0)),
@@ -119,6 +123,7 @@ class Simulator:
         self.turn_back_after = 4.0
         self.pass_margin = 0.0
         self.sidestep_max = 0.6
+        self.step_away_max = 1.0
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
@@ -262,7 +267,7 @@ class Simulator:
             if self._far_slack[i] > radius:  # certainly far: just walk
                 self._obstacle_held[i] = 0.0
                 self._obstacle_near[i] = False
-                self._obstacle_passing[i] = False
+                self._obstacle_passing[i] = self._obstacle_backing[i] = False
                 clocks[i] += step
                 if off:
                     offsets[i] = _shrink(off, back)
@@ -276,7 +281,7 @@ class Simulator:
             if d_cur > radius:
                 self._obstacle_held[i] = 0.0
                 self._obstacle_near[i] = False
-                self._obstacle_passing[i] = False
+                self._obstacle_passing[i] = self._obstacle_backing[i] = False
                 clocks[i] += step
                 if off:
                     offsets[i] = _shrink(off, back)
@@ -311,8 +316,11 @@ class Simulator:
 
         It walks on along its path while edging sideways, away from the nearest robot, by
         up to its speed per step (at most ``sidestep_max`` off its path, and only onto
-        cells its body clears), and holds -- in place or only edging aside -- while the
-        step would bring it within ``pass_margin`` of a robot's bounding circle.
+        cells its body clears), while that step keeps it beyond ``pass_margin`` of every
+        robot's bounding circle.  Where no such step exists (the robot stands in its way
+        too close to pass) it backs away from the robot, off its path (up to
+        ``step_away_max``; along a wall when the straight way is blocked), and holds once
+        it can do neither: it makes room as a person does, and the robot can then pass.
         """
         obstacle, bound = self._moving_bounds[i]
         clock, off, keep = self._clocks[i], self._offsets[i], bound + self.pass_margin
@@ -329,14 +337,28 @@ class Simulator:
                                               ox * nx + oy * ny + side * edge))
         aside = (ox + (lateral - (ox * nx + oy * ny)) * nx,
                  oy + (lateral - (ox * nx + oy * ny)) * ny)
-        for clock_next, off_next in ((clock + step, aside), (clock + step, off),
-                                     (clock, aside)):
+        passing: list[tuple[float, tuple[float, float] | None]] = [
+            (clock + step, aside), (clock + step, off), (clock, aside)]
+        backing: list[tuple[float, tuple[float, float] | None]] = []
+        gap = min(d_now)
+        if gap > 0.0:  # back away from the nearest robot (straight, else along a wall)
+            ux, uy = (at[0] - rx) / gap * edge, (at[1] - ry) / gap * edge
+            for dx, dy in ((ux, uy), (ux, 0.0), (0.0, uy)):
+                away = (ox + dx, oy + dy)
+                if math.hypot(*away) <= self.step_away_max:
+                    backing.append((clock, away))
+        # once it has started to back away it keeps doing so until clear of the robot
+        # (walking on again at once would close in, back away, close in ... in place)
+        candidates = backing if self._obstacle_backing[i] else passing + backing
+        for k, (clock_next, off_next) in enumerate(candidates):
+            if clock_next == clock and off_next == off:
+                continue
             if not self._clear_of_walls(obstacle, clock_next, off_next):
                 continue
             if _closes_in(obstacle, clock_next, off_next, robots, d_now, keep):
                 continue
-            if clock_next == clock and off_next == off:
-                return False
+            if candidates is not backing and k >= len(passing):
+                self._obstacle_backing[i] = True
             self._obstacle_held[i] = 0.0 if clock_next != clock else self._obstacle_held[i]
             self._clocks[i] = clock_next
             self._offsets[i] = off_next if off_next != (0.0, 0.0) else None
