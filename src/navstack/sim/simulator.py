@@ -14,7 +14,7 @@ well (a robot beside the end of a pingpong path, where both ways lead back past 
 robots on both sides) the obstacle instead steps aside (up to ``sidestep_max``, 0.6 m)
 and walks on past it, yielding only within ``pass_margin`` (0 m: its bounding circle
 stays 0.05 m off the robot's circumscribed circle); where the robot stands too close to
-pass it backs away from the robot, off its path (up to ``step_away_max``, 1 m), so the
+pass it backs away from the robot, off its path (up to ``step_away_max``, 2.5 m), so the
 robot can move.  Once clear of every robot's yield radius it walks back onto its path.
 A person squeezes past or makes room for a robot that stands in the way rather than wait
 for it for good.  The run stays deterministic (clocks, offsets, directions and hold
@@ -123,7 +123,7 @@ class Simulator:
         self.turn_back_after = 4.0
         self.pass_margin = 0.0
         self.sidestep_max = 0.6
-        self.step_away_max = 1.0
+        self.step_away_max = 2.5
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
