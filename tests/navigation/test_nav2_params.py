@@ -247,13 +247,16 @@ def test_command_chain_sections_are_checked_whole() -> None:
 
 def test_mission_sections_load_without_a_note() -> None:
     """The TurtleBot3 file's ``explore_node`` (explore_lite's node) and a ``coverage``
-    section are the missions' (navigation.nav2_params.MISSION_SECTIONS): accepted, not
-    noted as ignored, not passed to any server; an unknown section is still an error."""
+    section are the missions' (navigation.nav2_params.MISSION_SECTIONS), ``slam_toolbox``
+    the SLAM node's: accepted, not noted as ignored (the SLAM node reads its section: the
+    note "sections of nodes navstack does not run" misled), not passed to any server; an
+    unknown section is still an error."""
     data = {"controller_server": {"ros__parameters": {"controller_frequency": 20.0}},
             "explore_node": {"ros__parameters": {"potential_scale": 1e-3}},
-            "coverage": {"ros__parameters": {"cell_size": 0.8}}}
+            "coverage": {"ros__parameters": {"cell_size": 0.8}},
+            "slam_toolbox": {"ros__parameters": {"resolution": 0.05}}}
     nav = check_nav2_data(data, "f.yaml")
-    assert not any("explore_node" in n or "coverage" in n for n in nav.notes)
-    assert "explore_node" not in nav.data and "coverage" not in nav.data
+    assert nav.notes == []
+    assert not {"explore_node", "coverage", "slam_toolbox"} & set(nav.data)
     with pytest.raises(ConfigError, match="unknown section"):
         check_nav2_data({**data, "explore": {"ros__parameters": {}}}, "f.yaml")

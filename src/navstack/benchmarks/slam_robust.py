@@ -28,9 +28,10 @@ Simulated (:mod:`navstack.benchmarks.sim_logs`, true poses as reference):
   ``_ate_m``, ``_online_max_m`` (the online estimate's largest error, no alignment),
   ``_odometry_max_m``.
 
-Budgets (issue 15): ATE <= 0.15 m for ``_no_odom``, ``_heading_jump`` and ``_odom_gaps``,
-ATE <= 0.10 m and
-``dense_ms_growth`` <= 2 and ``dense_speedup`` >= 1 for the dense loop, ATE <= 0.10 m,
+Budgets (issue 15): ATE <= 0.15 m for ``_no_odom`` (acceptance 2a) and ``_heading_jump``
+(2b); ``_odom_gaps`` is a stress row held to 0.15 m as a target, reported apart and not
+counted in ``over_budget``; ATE <= 0.10 m and ``dense_ms_growth`` <= 2 and
+``dense_speedup`` >= 1 for the dense loop, ATE <= 0.10 m,
 IoU >= 0.90 and loop relations <= 0.05 m for the worlds, ATE <= 0.25 m and an online
 error never above the odometry's for the LDS drive.  ``--quick`` runs the edited
 logs on their first 200 scans and the worlds' loops only.
@@ -85,6 +86,11 @@ BUDGETS: dict[str, float] = {"dense_ate_m": 0.10, "dense_ms_growth": 2.0,
 FLOORS: dict[str, float] = {"dense_speedup": 1.0, "warehouse_map_iou": 0.90,
                             "campus_map_iou": 0.90}
 EDITED_ATE = 0.15
+#: ``_odom_gaps`` is a stress row beyond acceptance 2(a) (which drops the odometry *of*
+#: every second scan: ``_no_odom``): whole odometry intervals are lost, not just readings.
+#: It is held to the same 0.15 m as a target, reported apart and not counted in
+#: ``over_budget`` (docs/decisions.md, "Odometry gaps: acceptance row and stress row")
+STRESS_SUFFIXES = ("_odom_gaps_ate_m",)
 
 
 class LogEditError(NavstackError):
@@ -304,13 +310,15 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
                          "sparse_nodes": lds_run.mapper.stats.sparse_nodes,
                          "wall_s": lds_run.wall_s})
     budgets = {**BUDGETS, **{k: EDITED_ATE for k in m if k.endswith(
-        ("_no_odom_ate_m", "_heading_jump_ate_m", "_odom_gaps_ate_m"))}}
+        ("_no_odom_ate_m", "_heading_jump_ate_m"))}}
     over = [k for k, v in budgets.items() if k in m
             and not (math.isfinite(m[k]) and m[k] <= v)]
+    stress_over = [k for k in m if k.endswith(STRESS_SUFFIXES)
+                   and not (math.isfinite(m[k]) and m[k] <= EDITED_ATE)]
     over += [k for k, v in FLOORS.items() if k in m and not (math.isfinite(m[k]) and m[k] >= v)]
     over += lds_over_budget(m)
     m["over_budget"] = float(len(over))
-    result.notes.append("budgets: <log>_no_odom / _heading_jump / _odom_gaps ATE <= 0.15 m; "
+    result.notes.append("budgets: <log>_no_odom / _heading_jump ATE <= 0.15 m; "
                         + ", ".join(
         [f"{k} <= {v:g}" for k, v in BUDGETS.items()]
         + [f"{k} >= {v:g}" for k, v in FLOORS.items()]
@@ -320,5 +328,8 @@ def run(quick: bool, data_dir: Path | None = None) -> BenchResult:
         result.notes.append(f"quick: edited logs on their first {QUICK_SCANS} scans (the "
                             f"heading jump up to {QUICK_SCANS // 2} scans after it), no "
                             "dense loop")
+    result.notes.append("stress rows (target <log>_odom_gaps ATE <= 0.15 m, not a budget): "
+                        + ("over target: " + ", ".join(stress_over) if stress_over
+                           else "all within target"))
     result.notes.append("over budget: " + ", ".join(over) if over else "all budgets met")
     return result

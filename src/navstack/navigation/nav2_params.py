@@ -11,7 +11,8 @@ naming the file, the key path and the closest known name:
   ``robot_state_publisher``, lifecycle managers, ...) are accepted and ignored with a
   note, so real Nav2 files load as they are.  The sections navstack's missions read
   (:data:`MISSION_SECTIONS`: explore_lite's ``explore_node``, the coverage search's
-  ``coverage``) are accepted without a note; the missions check them.  Any other name is
+  ``coverage``) and SLAM's ``slam_toolbox`` (read by navstack's SLAM node) are accepted
+  without a note; the missions and the SLAM node check them.  Any other name is
   an error with a "did you mean" (``controler_server``); so is a file without any section
   navstack runs, or an empty file.
 * **Server keys.**  Each run server's own keys are its params model's fields, the Nav2
@@ -89,7 +90,7 @@ OTHER_NODES: frozenset[str] = frozenset({
     "lifecycle_manager_slam", "lifecycle_manager_keepout_zone",
     "lifecycle_manager_speed_zone", "lifecycle_manager_costmap_filters",
     # other ROS nodes often kept in the same file
-    "robot_state_publisher", "joint_state_publisher", "slam_toolbox", "ekf_filter_node",
+    "robot_state_publisher", "joint_state_publisher", "ekf_filter_node",
     "ekf_local_filter_node", "ekf_global_filter_node", "ukf_filter_node",
     "navsat_transform", "navsat_transform_node", "teleop_twist_joy_node",
     "joy_node", "explore_node", "pointcloud_to_laserscan", "laser_filter",
@@ -98,6 +99,8 @@ OTHER_NODES: frozenset[str] = frozenset({
 """Nav2 and companion node names that are recognised and ignored (with a note)."""
 
 MISSION_SECTIONS: frozenset[str] = frozenset({"explore_node", "coverage"})
+SLAM_SECTION = "slam_toolbox"
+"""Read by navstack's SLAM node (``SlamNode``) when SLAM runs; accepted without a note."""
 """Sections read by the missions (``navstack.interfaces.mission_catalog``), not by the
 servers: explore_lite's node (``explore_node``, its ROS 2 parameter file's name) and the
 coverage search.  The stack passes over them; each mission checks its own section."""
@@ -352,7 +355,7 @@ def check_nav2_data(data: Mapping[str, Any], file: str) -> Nav2Params:
             run.append(key)
         elif is_info_server_section(key) or is_mask_server_section(key):
             filters.append(key)
-        elif key in MISSION_SECTIONS:
+        elif key in MISSION_SECTIONS or key == SLAM_SECTION:
             continue
         elif key in OTHER_NODES:
             ignored_nodes.append(key)
