@@ -111,6 +111,29 @@ def test_progress_and_stuck_watchdogs_blacklist_the_goal() -> None:
     assert d.cancelled.startswith("no progress toward it for 30 s (progress_timeout)")
 
 
+def test_a_robot_wedged_far_from_its_goal_does_not_use_up_the_frontier() -> None:
+    """Stuck 6 m from the goal (wedged on the way, as office information gain seed 5 was
+    twice in rooms C and F): the frontier is set aside and retried without counting
+    toward ``max_goal_attempts``; after ``2 * max_goal_attempts`` tries it is given up."""
+    unknown = np.zeros((20, 80), bool)
+    unknown[:, 70:] = True
+    free = ~unknown
+    view = GridView(unknown, free, free.copy(), 0.1)
+    ex = FrontierExplorer(ExploreParams(stuck_timeout=15.0, max_goal_attempts=1))
+    assert ex.plan(view, (0.5, 1.0, 0.0), 0.0).kind is DecisionKind.SEND
+    stuck = ex.plan(view, (0.5, 1.0, 2.0), 16.0)
+    assert stuck.blacklisted and stuck.cancelled.endswith(", 6.3 m from the goal")
+    assert stuck.kind is DecisionKind.SEND  # retried at once: it was the only frontier
+    assert ex.stats.retries == 1
+    again = ex.plan(view, (0.5, 1.0, 2.0), 32.0)
+    assert again.blacklisted and again.kind is DecisionKind.DONE
+    assert "(20 cells, tried 2x): the robot moved less than 0.25 m in 15 s" in again.reason
+    # stuck next to the goal: the frontier's own failure, no retry with one attempt
+    near = FrontierExplorer(ExploreParams(stuck_timeout=15.0, max_goal_attempts=1))
+    near.plan(view, (5.0, 1.0, 0.0), 0.0)
+    assert near.plan(view, (5.0, 1.0, 2.0), 16.0).kind is DecisionKind.DONE
+
+
 def _two_frontiers(right_unknown_cols: slice) -> GridView:
     """A 4 x 2 m room: a thin frontier on the left wall (x = 0) and unknown space
     ``right_unknown_cols`` on the right."""

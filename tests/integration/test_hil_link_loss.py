@@ -73,7 +73,7 @@ def _link_loss_run(robot: str, goal: Pose2D, cut: Callable[[VehicleLink], None],
         _run_until(stack, nav, t1 + 120.0)
         assert nav.getResult() == TaskResult.SUCCEEDED, nav.getTaskResult()
         sim = stack.sim.sim
-        assert sim.collisions == 0, (sim.pose, [o.pose_at(t) for o, t in zip(
+        assert sim.collisions == 0, (sim.pose, [o.pose_in(t) for o, t in zip(
             stack.world.moving_obstacles, sim.obstacle_clocks, strict=True)])
         assert driver.watchdog.losses == 1
         assert stack.sim.sim.pose.distance_to(goal) < 0.6

@@ -9,6 +9,9 @@ them before grouping, so only genuinely new frontier cells form frontiers.  Each
 records why and how often it was tried; :meth:`Blacklist.release_retryable` lifts the
 entries tried fewer than ``max_attempts`` times, so that exploration never ends while a
 reachable frontier was abandoned only once (a person in the door, a transient failure).
+A try that failed for a reason that is not the frontier's (the robot wedged on the way,
+far from it) is recorded but not *blamed*: only blamed tries count toward
+``max_attempts``, and ``2 * max_attempts`` tries in all end the retries.
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ class BlacklistEntry:
     stamp: float
     attempts: int = 1
     active: bool = True
+    blamed: int = 1
+    """Tries that failed because of the frontier (``attempts`` counts every try)."""
 
     def describe(self) -> str:
         x, y = self.centroid
@@ -50,14 +55,16 @@ class Blacklist:
     max_attempts: int = 2
     entries: list[BlacklistEntry] = field(default_factory=list)
 
-    def add(self, points: FloatArray, reason: str, stamp: float) -> BlacklistEntry:
-        """Blacklist the frontier with cell centres ``points`` (N, 2)."""
+    def add(self, points: FloatArray, reason: str, stamp: float,
+            blame: bool = True) -> BlacklistEntry:
+        """Blacklist the frontier with cell centres ``points`` (N, 2); ``blame`` False:
+        the try failed for a reason that is not the frontier's (module docstring)."""
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        attempts = 1 + max((e.attempts for e in self.entries if _overlaps(e.points, pts,
-                                                                           self.tolerance)),
-                           default=0)
+        before = [e for e in self.entries if _overlaps(e.points, pts, self.tolerance)]
+        attempts = 1 + max((e.attempts for e in before), default=0)
+        blamed = int(blame) + max((e.blamed for e in before), default=0)
         entry = BlacklistEntry(pts.copy(), (float(pts[:, 0].mean()), float(pts[:, 1].mean())),
-                               reason, stamp, attempts)
+                               reason, stamp, attempts, blamed=blamed)
         self.entries.append(entry)
         return entry
 
@@ -80,8 +87,10 @@ class Blacklist:
         return dilate(out, math.ceil(self.tolerance / view.resolution - 1e-9))
 
     def release_retryable(self) -> list[BlacklistEntry]:
-        """Lift the active entries tried fewer than ``max_attempts`` times; returns them."""
-        released = [e for e in self.entries if e.active and e.attempts < self.max_attempts]
+        """Lift the active entries blamed fewer than ``max_attempts`` times (and tried
+        fewer than twice that); returns them."""
+        released = [e for e in self.entries if e.active and e.blamed < self.max_attempts
+                    and e.attempts < 2 * self.max_attempts]
         for e in released:
             e.active = False
         return released

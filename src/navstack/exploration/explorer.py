@@ -262,8 +262,9 @@ class FrontierExplorer:
         self.last = fs
         return fs
 
-    def _blacklist(self, points: FloatArray, reason: str, now: float) -> None:
-        entry = self.blacklist.add(points, reason, now)
+    def _blacklist(self, points: FloatArray, reason: str, now: float,
+                   blame: bool = True) -> None:
+        entry = self.blacklist.add(points, reason, now, blame)
         self.stats.blacklisted += 1
         self._blacklist_changed = True
         self._log(now, f"blacklisted {entry.describe()}")
@@ -292,14 +293,19 @@ class FrontierExplorer:
             pur.best_distance, pur.last_progress = d, now
         if math.hypot(robot[0] - pur.anchor[0], robot[1] - pur.anchor[1]) >= p.stuck_distance:
             pur.anchor, pur.anchor_time = (robot[0], robot[1]), now
+        blame = True
         if now - pur.last_progress > p.progress_timeout:
             reason = f"no progress toward it for {p.progress_timeout:.0f} s (progress_timeout)"
         elif now - pur.anchor_time > p.stuck_timeout:
             reason = (f"the robot moved less than {p.stuck_distance:.2f} m in "
                       f"{p.stuck_timeout:.0f} s (stuck or turning in place)")
+            away = math.hypot(robot[0] - pur.target.goal[0], robot[1] - pur.target.goal[1])
+            if away > p.stuck_blame_distance:  # wedged on the way: not the frontier's fault
+                blame = False
+                reason += f", {away:.1f} m from the goal"
         else:
             return ""
-        self._blacklist(pur.points, reason, now)
+        self._blacklist(pur.points, reason, now, blame)
         self._pursuit = None
         return reason
 

@@ -72,6 +72,12 @@ class ExploreParams(Params):
     stuck_distance: float = Field(0.25, gt=0.0)
     """A goal during which the robot moved less than ``stuck_distance`` [m] in
     ``stuck_timeout`` [s] (turning in place, recovering) is abandoned and blacklisted."""
+    stuck_blame_distance: float = Field(3.0, gt=0.0)
+    """A goal abandoned as stuck (above) while the robot was farther than this [m,
+    straight line] from it counts as the robot's failure on the way, not the frontier's:
+    its frontier is set aside and retried like a blacklisted one, but the try does not
+    count toward ``max_goal_attempts`` (at most ``2 * max_goal_attempts`` tries in all).
+    navstack: explore_lite blames the frontier for any goal that makes no progress."""
     arrival_settle_time: float = Field(2.0, ge=0.0)
     """After a goal is reached, the map this much later decides whether its frontier was
     explored; if not, the frontier is blacklisted (it cannot be seen from there)."""

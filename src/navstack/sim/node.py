@@ -272,7 +272,7 @@ class SimulatorNode(Node):
         markers = []
         for i, (o, clock) in enumerate(zip(self.sim.world.moving_obstacles,
                                            self.sim.obstacle_clocks, strict=True)):
-            x, y, heading = o.pose_at(clock)
+            x, y, heading = o.pose_in(clock)
             if o.shape == "circle":
                 kind, scale = Marker.CYLINDER, Vector3(2 * o.radius, 2 * o.radius, 1.7)
             else:

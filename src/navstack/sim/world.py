@@ -16,7 +16,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,10 +27,23 @@ from navstack.core.polygon import points_in_polygon
 from navstack.sim.markers import PackageSpec, WorldMarker
 
 FloatArray = NDArray[np.float64]
-MovingTime = float | tuple[float, ...]
+
+
+class ObstacleState(NamedTuple):
+    """A moving obstacle's clock [s] and its offset [m] from the point of its path at that
+    clock (a walker that stepped aside to pass a robot, :mod:`navstack.sim.simulator`)."""
+
+    clock: float
+    dx: float = 0.0
+    dy: float = 0.0
+
+
+ObstacleClock = float | ObstacleState
+"""One obstacle's clock, or its clock and offset while it is off its path."""
+MovingTime = float | tuple[ObstacleClock, ...]
+"""One time for all moving obstacles, or one clock (or state) per obstacle."""
 _NO_SEGMENTS: FloatArray = np.zeros((0, 4))
 _NO_SEGMENTS.setflags(write=False)
-"""One time for all moving obstacles, or one clock per obstacle."""
 BoolArray = NDArray[np.bool_]
 ObstacleShape = Literal["circle", "box"]
 PathMode = Literal["pingpong", "loop"]
@@ -106,9 +119,18 @@ class MovingObstacle:
         heading = math.atan2(math.sin(heading), math.cos(heading))
         return a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), heading
 
-    def polygon_at(self, t: float) -> FloatArray:
-        """Corners ``(4, 2)`` of a box obstacle at time ``t`` (counter-clockwise)."""
-        x, y, h = self.pose_at(t)
+    def pose_in(self, state: ObstacleClock) -> tuple[float, float, float]:
+        """``(x, y, heading)`` at a clock, or at an :class:`ObstacleState` (its offset
+        added; the heading stays the path's)."""
+        if isinstance(state, ObstacleState):
+            x, y, h = self.pose_at(state.clock)
+            return x + state.dx, y + state.dy, h
+        return self.pose_at(state)
+
+    def polygon_at(self, t: ObstacleClock) -> FloatArray:
+        """Corners ``(4, 2)`` of a box obstacle at time (or state) ``t``
+        (counter-clockwise)."""
+        x, y, h = self.pose_in(t)
         hl, hw = 0.5 * self.size[0], 0.5 * self.size[1]
         local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
         c, s = math.cos(h), math.sin(h)
@@ -204,7 +226,8 @@ class World:
         """``(circles (k, 3) as (cx, cy, r), boxes (b, 4, 2) corners)`` at time ``t``.
 
         ``t`` is one time for every obstacle, or a tuple with each obstacle's own clock
-        (the simulator holds an obstacle's clock while it yields to the robot).
+        (the simulator holds an obstacle's clock while it yields to the robot), or its
+        :class:`ObstacleState` while it has stepped off its path to pass a robot.
         Memoised for the last ``t`` (physics and sensors ask about the same instant);
         callers must not modify the arrays.
         """
@@ -213,7 +236,7 @@ class World:
             return cached[1], cached[2]
         obstacles = self.moving_obstacles
         times = t if isinstance(t, tuple) else (t,) * len(obstacles)
-        circles = [(*o.pose_at(ti)[:2], o.radius) for o, ti in zip(obstacles, times, strict=True)
+        circles = [(*o.pose_in(ti)[:2], o.radius) for o, ti in zip(obstacles, times, strict=True)
                    if o.shape == "circle"]
         boxes = [o.polygon_at(ti) for o, ti in zip(obstacles, times, strict=True)
                  if o.shape == "box"]
