@@ -14,22 +14,11 @@ import pytest
 from navstack.benchmarks.slam_lds import lds_params
 from navstack.mapping.fast_matcher import WideWindow
 from navstack.mapping.loop_closure import LoopCandidate
-from navstack.mapping.slam import LaserGeometry, SlamMapper
+from navstack.mapping.slam import SlamMapper
 from navstack.mapping.slam_params import SlamParams
 from navstack.mapping.submaps import Submap
-from navstack.sim.worlds import load_world
-
-ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)
-LASER = LaserGeometry(ANGLES, 0.1, 12.0)
-
-
-@pytest.fixture(scope="module")
-def office():
-    return load_world("office")
-
-
-def _ranges(world, pose) -> np.ndarray:
-    return world.cast_rays(pose[0], pose[1], pose[2], ANGLES, 0.1, 12.0, 0.0)
+from tests.mapping.sim_scans import LASER
+from tests.mapping.sim_scans import ranges_at as _ranges
 
 
 @pytest.mark.parametrize(("fraction", "offset", "found"),

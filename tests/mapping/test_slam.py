@@ -13,18 +13,8 @@ from navstack.mapping.icp import line_normals, refine_point_to_line
 from navstack.mapping.slam import LaserGeometry, SlamMapper
 from navstack.mapping.slam_params import SlamParams, unused_solver_keys
 from navstack.sim.worlds import load_world
-
-ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)
-LASER = LaserGeometry(ANGLES, 0.1, 12.0)
-
-
-@pytest.fixture(scope="module")
-def office():
-    return load_world("office")
-
-
-def _ranges(world, pose) -> np.ndarray:
-    return world.cast_rays(pose[0], pose[1], pose[2], ANGLES, 0.1, 12.0, 0.0)
+from tests.mapping.sim_scans import ANGLES, LASER
+from tests.mapping.sim_scans import ranges_at as _ranges
 
 
 def test_nodes_follow_minimum_travel_distance(office) -> None:
