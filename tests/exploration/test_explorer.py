@@ -193,3 +193,29 @@ def test_an_observed_frontier_is_given_up_without_blacklisting() -> None:
     done = ex.plan(GridView(~free, free, free.copy(), 0.1), (1.5, 1.0, 0.0), 1.0)
     assert done.cancelled == "its frontier was observed"
     assert not done.blacklisted and ex.stats.blacklisted == 0
+
+
+def test_information_gain_keeps_a_sent_goal_that_is_still_a_good_viewpoint() -> None:
+    """The best viewpoint of the target moves as the robot does; a goal already sent is
+    kept while it scores within ``retarget_hysteresis`` of the best one -- re-sending it
+    at every plan made the robot stop and restart (office seed 2 flipped between two
+    viewpoints 0.54 m apart every second) -- and moved once it is clearly worse."""
+    unknown = np.zeros((60, 40), bool)  # a 4 x 6 m room, its right metre unknown
+    unknown[:, 30:] = True
+    free = ~unknown
+    view = GridView(unknown, free, free.copy(), 0.1)
+    ex = FrontierExplorer(ExploreParams(strategy="information_gain", lookahead_distance=0.0))
+    first = ex.plan(view, (1.0, 3.2, 0.0), 0.0)
+    assert first.kind is DecisionKind.SEND and first.target is not None
+    sent = first.target.goal
+    assert sent[1] > 3.0
+    # the robot has moved 1.2 m down: the best viewpoint is now 1.2 m lower, but the one
+    # sent is nearly as good (within 25 %): kept
+    kept = ex.plan(view, (1.0, 2.0, 0.0), 1.0)
+    assert kept.kind is DecisionKind.KEEP and kept.target is not None
+    assert kept.target.goal[1] < sent[1] - 1.0  # the best one did move
+    assert ex.target is not None and ex.target.goal == sent
+    # 2.9 m down: the goal sent is 1.4 m farther than the best one: moved
+    moved = ex.plan(view, (1.0, 0.3, 0.0), 2.0)
+    assert moved.kind is DecisionKind.SEND and moved.reason == "goal moved"
+    assert moved.target is not None and moved.target.goal[1] < 2.0

@@ -188,7 +188,8 @@ class FrontierExplorer:
                 # explore_lite re-sends when its goal moves at all; the viewpoint of the
                 # information-gain target is updated when it moves by a viewpoint spacing
                 tol = 2.0 * view.resolution if lite else p.viewpoint_spacing
-                if not _near(current.goal, old_goal, tol):
+                if not _near(current.goal, old_goal, tol) and (
+                        lite or not self._still_good(old_goal, current, fs, view, robot)):
                     self._pursuit.sent_distance = current.distance
                     self._pursuit.sent_gain = current.gain
                     return Decision(DecisionKind.SEND, current, "goal moved", fs, cancelled, failed)
@@ -227,6 +228,20 @@ class FrontierExplorer:
         self._arrivals.append(_Arrival(self._pursuit.points, self._pursuit.target.goal, now))
         self._pursuit = None
         return others[0]
+
+    def _still_good(self, old_goal: tuple[float, float], current: Target, fs: FrontierSet,
+                    view: GridView, robot: tuple[float, float, float]) -> bool:
+        """Whether the goal already sent for the current target is as good a viewpoint as
+        its best one now, within ``retarget_hysteresis``: then it stays, instead of the
+        goal hopping between two near-equal viewpoints at every plan (each hop a new
+        goal, and the robot stops to start it)."""
+        strategy = self.strategy
+        assert strategy is not None
+        old = strategy.viewpoint_utility(fs, view, robot, old_goal)
+        new = strategy.viewpoint_utility(fs, view, robot, current.goal)
+        if old is None or new is None or old <= 0.0:
+            return False
+        return not strategy.better(new, old, self.params.retarget_hysteresis)
 
     def goal_finished(self, status: str, reason: str, now: float) -> None:
         """The navigator ended the goal: ``status`` SUCCEEDED / FAILED / CANCELED."""

@@ -75,6 +75,13 @@ class ExplorationStrategy(ABC):
              robot: tuple[float, float, float]) -> list[Target]:
         """Targets for the reachable frontiers, best first."""
 
+    def viewpoint_utility(self, frontiers: FrontierSet, view: GridView,
+                          robot: tuple[float, float, float],
+                          goal: tuple[float, float]) -> float | None:
+        """The score of sending the robot to ``goal`` for its frontier, for strategies
+        that score viewpoints (higher is better); ``None`` for those that do not."""
+        return None
+
     def better(self, a: float, b: float, margin: float = 0.0) -> bool:
         """True when score ``a`` beats ``b`` by more than ``margin`` (a fraction)."""
         if self.higher_is_better:
@@ -158,11 +165,7 @@ class InformationGainUtility(ExplorationStrategy):
         gain = visible_unknown(view, r, c, p.sensor_range) * view.resolution ** 2
         dist = frontiers.distances[r, c]
         pts = view.centres(r, c)
-        # the turn to head for it [rad], as metres the robot would have driven meanwhile
-        bearing = np.arctan2(pts[:, 1] - robot[1], pts[:, 0] - robot[0]) - robot[2]
-        turn = np.abs(np.remainder(bearing + math.pi, 2.0 * math.pi) - math.pi)
-        turn[np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1]) < 1e-9] = 0.0
-        discount = np.exp(-p.distance_decay * (dist + p.turn_distance * turn))
+        discount = np.exp(-p.distance_decay * (dist + p.turn_distance * _turns(robot, pts)))
         utility = gain * discount
         best: dict[int, int] = {}
         for k in np.argsort(-utility, kind="stable"):
@@ -182,6 +185,30 @@ class InformationGainUtility(ExplorationStrategy):
                for i, k in best.items()]
         out.sort(key=lambda t: -t.score)
         return out
+
+    def viewpoint_utility(self, frontiers: FrontierSet, view: GridView,
+                          robot: tuple[float, float, float],
+                          goal: tuple[float, float]) -> float | None:
+        """The goal-only utility of one viewpoint (no path gain): 0 when it is off the
+        map, not reachable, or sees no unknown cell any more."""
+        p = self.params
+        r, c = view.cell_of(*goal)
+        if not view.inside(r, c) or not math.isfinite(float(frontiers.distances[r, c])):
+            return 0.0
+        rows, cols = np.array([r]), np.array([c])
+        gain = float(visible_unknown(view, rows, cols, p.sensor_range)[0]) * view.resolution ** 2
+        turn = float(_turns(robot, view.centres(rows, cols))[0])
+        return gain * math.exp(-p.distance_decay * (float(frontiers.distances[r, c])
+                                                    + p.turn_distance * turn))
+
+
+def _turns(robot: tuple[float, float, float], pts: np.ndarray) -> np.ndarray:
+    """The turn [rad] to head for each point: metres the robot would have driven meanwhile
+    once scaled by ``turn_distance``."""
+    bearing = np.arctan2(pts[:, 1] - robot[1], pts[:, 0] - robot[0]) - robot[2]
+    turn = np.abs(np.remainder(bearing + math.pi, 2.0 * math.pi) - math.pi)
+    turn[np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1]) < 1e-9] = 0.0
+    return turn
 
 
 STRATEGIES: dict[str, type[ExplorationStrategy]] = {
