@@ -118,7 +118,7 @@ def bench(
     Console().print(table)
     if result.show_cases and result.cases:
         rows = Table(title=f"{suite}: runs")
-        columns = list(result.cases[0])
+        columns = [c for c, v in result.cases[0].items() if not isinstance(v, list)]
         for column in columns:
             rows.add_column(column, justify="left" if column == "parameter" else "right")
         for case in result.cases:

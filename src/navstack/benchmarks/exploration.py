@@ -9,7 +9,10 @@ explore_mission`, the ``navstack mission explore`` setup) and returns home.  Per
   robot can see from where it fits, known in the published ``/map``);
 * final map IoU (observable wall surfaces, :func:`~navstack.mapping.map_metrics.occupancy_iou`),
   path length, collisions, the true distance to the start at the end;
-* SLAM map update latency (scan -> ``/map``) and goal-to-first-motion, p95;
+* SLAM map update latency (scan -> ``/map``) and goal-to-first-motion, p95 (the bench's
+  goal-to-first-motion p95 is over every goal of all its runs -- a run sends only 3-10
+  goals to a standing robot, so a run's own p95 is its slowest start; the worst run's
+  is reported beside it);
 * success = SUCCEEDED, >= 95 % observed, home within 0.3 m, no collision.
 
 The reference is an idealised greedy nearest-frontier explorer on the same world
@@ -106,7 +109,7 @@ def run_case(world: str, strategy: str, seed: int,
             "slam_map_latency_p95_s", "slam_map_latency_sim_p95_s", "slam_map_build_s",
             "goal_to_first_motion_p95_s", "goal_to_first_motion_wall_p95_s",
             "max_spin_in_place_s", "pose_error_rms_m", "pose_error_max_m", "wall_time_s",
-            "real_time_factor")
+            "real_time_factor", "goal_to_first_motion_s")
     case = {"world": world, "strategy": strategy, "seed": seed,
             "localization": report["localization"],
             **{k: report.get(k, math.nan) for k in keys}}
@@ -153,10 +156,15 @@ def summarize(cases: list[dict[str, Any]], refs: dict[str, dict[str, float]],
         m[f"{s}.runs"] = float(len(runs))
     lat = [c["slam_map_latency_p95_s"] for c in cases if not math.isnan(c[
         "slam_map_latency_p95_s"])]
-    resp = [c["goal_to_first_motion_p95_s"] for c in cases
-            if not math.isnan(c["goal_to_first_motion_p95_s"])]
+    per_run = [c["goal_to_first_motion_p95_s"] for c in cases
+               if not math.isnan(c["goal_to_first_motion_p95_s"])]
+    delays = [d for c in cases for d in c.get("goal_to_first_motion_s") or ()]
     m["slam_map_latency_p95_s"] = max(lat) if lat else math.nan
-    m["goal_to_first_motion_p95_s"] = max(resp) if resp else math.nan
+    # the p95 of every goal sent to a standing robot in the bench's runs: a run has only
+    # 3-10 such goals, so its own "p95" is its slowest one (reported beside it)
+    m["goal_to_first_motion_p95_s"] = float(np.percentile(delays, 95)) if delays else math.nan
+    m["goal_to_first_motion_samples"] = float(len(delays))
+    m["goal_to_first_motion_worst_run_p95_s"] = max(per_run) if per_run else math.nan
     m["max_spin_in_place_s"] = max(c["max_spin_in_place_s"] for c in cases)
     _budgets(cases, worlds, strategies, result)
 

@@ -218,6 +218,7 @@ class CommandResponse:
         return {"goal_to_first_motion_p95_s": percentile(self.delays, 95),
                 "goal_to_first_motion_wall_p95_s": percentile(self.wall_delays, 95),
                 "goal_to_first_motion_samples": len(self.delays),
+                "goal_to_first_motion_s": [round(d, 3) for d in self.delays],
                 "goal_to_first_motion_slowest": [[round(t, 2), round(d, 3)]
                                                  for d, t in slowest]}
 
