@@ -42,6 +42,12 @@ def test_exploration_ends_home_without_spinning(world: str, strategy: str,
     assert r["max_spin_in_place_s"] <= 30.0
     assert r["home_distance_m"] <= 0.3
     assert r["collisions"] == 0
+    # the map latency is the simulated wait for an update plus the wall time it took
+    assert r["slam_map_compute_p95_s"] > 0.0
+    assert r["slam_map_latency_p95_s"] >= r["slam_map_latency_sim_p95_s"]
+    assert r["slam_map_latency_bound_p95_s"] == pytest.approx(
+        r["slam_map_latency_sim_p95_s"] + r["slam_map_build_s"])
+    assert len(r["goal_to_first_motion_s"]) == r["goal_to_first_motion_samples"] >= 1
     done = r["explore"]["done_reason"]
     if world == "explore_narrow_door":
         # the room behind the 0.25 m gap is named as unreachable, not pursued

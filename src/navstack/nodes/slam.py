@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -102,6 +103,8 @@ class SlamNode(Node):
         """Scans the mapper raised on: counted, logged, skipped (mapping goes on)."""
         self.last_problem = ""
         self.maps_published = 0
+        self.map_compute_s = 0.0
+        """Wall time [s] the last ``/map`` update took to compute."""
         self._pending: tuple[np.ndarray, np.ndarray, float] | None = None
         self._worker: threading.Thread | None = None
         self._lock = threading.Lock()
@@ -259,7 +262,11 @@ class SlamNode(Node):
                                       free_thresh=self.params.map_free_thresh)
 
     def publish_map(self) -> None:
+        t0 = time.perf_counter()
         grid = self.occupancy_grid()
+        # wall time of this update: in a simulated run, the delay a robot's computer adds
+        # to the timer's (the exploration bench's map latency)
+        self.map_compute_s = time.perf_counter() - t0
         if grid is not None:
             self.pub_map.publish(grid)
             self.maps_published += 1
