@@ -66,7 +66,7 @@ class FleetSimulator:
         for i, sim in enumerate(self.sims):
             sim.peers = tuple(s for j, s in enumerate(self.sims) if j != i)
             sim.obstacle_owner = None if i == 0 else owner
-        owner.robot_speed_bound = max(s.robot_speed_bound for s in self.sims)
+        owner.walkers.robot_speed_bound = max(s.walkers.robot_speed_bound for s in self.sims)
         self._check_spawns()
         self.min_separation = SEPARATION_CAP
         self.min_separation_at: tuple[float, str, str] | None = None

@@ -5,20 +5,9 @@ construction, explicit time): :mod:`navstack.sim.node` wraps it in a lifecycle n
 publishes ``/scan``, ``/odom``, ``/imu``, ``/tf``, ``/clock`` and ``/ground_truth`` (and
 ``/gps/fix``, ``/gps/vel``, ``/imu/mag`` when the profile enables GNSS / magnetometer).
 
-Moving obstacles yield: each has its own clock, held still during a step in which its
-motion would bring it closer to the robot than ``yield_margin`` (0.6 m) beyond their
-bounding circles — people and forklifts stop for a robot rather than walk through it —
-and an obstacle held for ``turn_back_after`` (4 s) turns back along its path, so a
-face-off in a corridor always resolves.  When turning back would close in on a robot as
-well (a robot beside the end of a pingpong path, where both ways lead back past it, or
-robots on both sides) the obstacle instead steps aside (up to ``sidestep_max``, 0.6 m)
-and walks on past it, yielding only within ``pass_margin`` (0 m: its bounding circle
-stays 0.05 m off the robot's circumscribed circle); where the robot stands too close to
-pass it backs away from the robot, off its path (up to ``step_away_max``, 2.5 m), so the
-robot can move.  Once clear of every robot's yield radius it walks back onto its path.
-A person squeezes past or makes room for a robot that stands in the way rather than wait
-for it for good.  The run stays deterministic (clocks, offsets, directions and hold
-times depend only on the simulated history).
+Moving obstacles (people, forklifts) make way for the robot: they hold, turn back, step
+aside or back away rather than walk through it (:mod:`navstack.sim.walkers`); the run
+stays deterministic.
 
 Contact model: a step whose footprint would overlap an obstacle is not taken — the robot
 stays where it was with zero velocity, as a real base stalls against a wall.  A blocked
@@ -63,29 +52,10 @@ from navstack.sim.packages import PackageWorld
 from navstack.sim.raycast import cast_rays
 from navstack.sim.robot import RobotParams
 from navstack.sim.sensors import GroundTruthModel, ImuModel, LidarModel, WheelOdometryModel
-from navstack.sim.world import MovingObstacle, ObstacleClock, ObstacleState, World
+from navstack.sim.walkers import WalkerTraffic
+from navstack.sim.world import ObstacleClock, World
 
 _NO_CIRCLES = np.zeros((0, 3), dtype=np.float64)
-
-
-def _shrink(off: tuple[float, float], by: float) -> tuple[float, float] | None:
-    """An offset ``by`` metres shorter (``None`` once it reaches the path)."""
-    n = math.hypot(*off)
-    if n <= by:
-        return None
-    return off[0] * (1.0 - by / n), off[1] * (1.0 - by / n)
-
-
-def _closes_in(obstacle: MovingObstacle, clock: float, off: tuple[float, float] | None,
-               robots: list[tuple[float, float]], d_now: list[float], keep: float) -> bool:
-    """Whether the obstacle at ``clock`` (+ ``off``) is nearer than ``keep`` to a robot it
-    was farther from (``d_now``: its distances to ``robots`` before the step)."""
-    nx, ny, _ = obstacle.pose_at(clock)
-    if off:
-        nx, ny = nx + off[0], ny + off[1]
-    return any(d_next < keep and d_next < d
-               for d_next, d in zip([math.hypot(nx - rx, ny - ry) for rx, ry in robots],
-                                    d_now, strict=True))
 
 
 class Simulator:
@@ -103,27 +73,16 @@ class Simulator:
         radius = self.footprint.circumscribed_radius
         self._dist = world.distance_field()
         self._broad_radius = radius + 1.5 * world.resolution
-        self._moving_bounds = [
-            (o, radius + (o.radius if o.shape == "circle" else 0.5 * math.hypot(*o.size)) + 0.05)
-            for o in world.moving_obstacles]
-        self.obstacle_clocks: tuple[ObstacleClock, ...] = (0.0,) * len(world.moving_obstacles)
-        """Each moving obstacle's clock, or its :class:`ObstacleState` while off its path."""
-        self._clocks = [0.0] * len(world.moving_obstacles)
-        self._offsets: list[tuple[float, float] | None] = [None] * len(world.moving_obstacles)
-        self._obstacle_dir = [1.0] * len(world.moving_obstacles)
-        self._obstacle_held = [0.0] * len(world.moving_obstacles)
-        self._obstacle_near = [True] * len(world.moving_obstacles)
-        self._obstacle_passing = [False] * len(world.moving_obstacles)
-        self._obstacle_backing = [False] * len(world.moving_obstacles)
-        self._far_slack = [0.0] * len(world.moving_obstacles)
         k = robot.kinematics
-        self.robot_speed_bound = math.hypot(max(abs(k.max_vel_x), abs(k.min_vel_x or 0.0)),
-                                            abs(k.max_vel_y))
-        self.yield_margin = 0.6
-        self.turn_back_after = 4.0
-        self.pass_margin = 0.0
-        self.sidestep_max = 0.6
-        self.step_away_max = 2.5
+        self.walkers = WalkerTraffic(
+            world, radius,
+            math.hypot(max(abs(k.max_vel_x), abs(k.min_vel_x or 0.0)), abs(k.max_vel_y)),
+            self._dist)
+        self.obstacle_clocks: tuple[ObstacleClock, ...] = self.walkers.states
+        """Each moving obstacle's clock, or its
+        :class:`~navstack.sim.world.ObstacleState` while off its path."""
+        self.obstacle_near = self.walkers.near
+        """Whether each moving obstacle is within its yield radius of a robot."""
         start = spawn or world.spawn
         self.state = RobotState(x=start.x, y=start.y, yaw=start.theta)
         self._imu_prev_state: RobotState | None = None
@@ -195,7 +154,7 @@ class Simulator:
         """Move the robot instantly (kidnapping tests); velocities reset to zero."""
         self.state = RobotState(x=pose.x, y=pose.y, yaw=pose.theta)
         self._imu_prev_state = None
-        self._far_slack = [0.0] * len(self._far_slack)  # distances changed: re-evaluate
+        self.walkers.forget_distances()  # distances changed: re-evaluate
 
     @property
     def pose(self) -> Pose2D:
@@ -215,10 +174,13 @@ class Simulator:
         if self.obstacle_clocks:
             owner = self.obstacle_owner
             if owner is None:
-                self._advance_obstacles(dt)
+                robots = [(self.state.x, self.state.y)]
+                robots += [(p.state.x, p.state.y) for p in self.peers]
+                self.walkers.advance(dt, robots)
+                self.obstacle_clocks = self.walkers.states
             else:  # a fleet: the owner has advanced the shared obstacles for this step
                 self.obstacle_clocks = owner.obstacle_clocks
-                self._obstacle_near = owner._obstacle_near
+                self.obstacle_near = owner.obstacle_near
         moved = new.x != self.state.x or new.y != self.state.y or new.yaw != self.state.yaw
         if moved:
             blocked = self._collides(new) or self._touches_package(new)
@@ -244,142 +206,6 @@ class Simulator:
         return self.packages.contact(self._footprint_at(state),
                                      Pose2D(state.x, state.y, state.yaw), self.time)
 
-    def _advance_obstacles(self, dt: float) -> None:
-        """Advance each obstacle's clock unless that step would close in on the robot.
-
-        An obstacle far from the robot is not even evaluated: ``_far_slack`` is a lower
-        bound on its distance, shrunk by the most both can have moved since the last
-        exact evaluation, and only when it drops below the yield radius is the pose
-        computed again (physics runs at 50 Hz; most obstacles are far most of the time).
-        An obstacle that stepped aside to pass a robot walks back onto its path once it
-        is clear of every robot (:meth:`_pass_step`).
-        """
-        robots = [(self.state.x, self.state.y)]
-        robots += [(p.state.x, p.state.y) for p in self.peers]
-        clocks, offsets = self._clocks, self._offsets
-        reach = self.robot_speed_bound * dt
-        for i, (obstacle, bound) in enumerate(self._moving_bounds):
-            step = self._obstacle_dir[i] * dt
-            radius = bound + self.yield_margin + obstacle.speed * dt
-            back = obstacle.speed * dt  # how far it may walk back toward its path per step
-            off = offsets[i]
-            self._far_slack[i] -= obstacle.speed * dt + reach + (back if off else 0.0)
-            if self._far_slack[i] > radius:  # certainly far: just walk
-                self._obstacle_held[i] = 0.0
-                self._obstacle_near[i] = False
-                self._obstacle_passing[i] = self._obstacle_backing[i] = False
-                clocks[i] += step
-                if off:
-                    offsets[i] = _shrink(off, back)
-                continue
-            cx, cy, _ = obstacle.pose_at(clocks[i])
-            if off:
-                cx, cy = cx + off[0], cy + off[1]
-            d_now = [math.hypot(cx - rx, cy - ry) for rx, ry in robots]
-            d_cur = min(d_now)
-            self._far_slack[i] = d_cur
-            if d_cur > radius:
-                self._obstacle_held[i] = 0.0
-                self._obstacle_near[i] = False
-                self._obstacle_passing[i] = self._obstacle_backing[i] = False
-                clocks[i] += step
-                if off:
-                    offsets[i] = _shrink(off, back)
-                continue
-            self._obstacle_near[i] = True
-            if self._obstacle_passing[i]:
-                if self._pass_step(i, step, robots, d_now, (cx, cy)):
-                    continue
-            # hold while the step would close in on any robot within the yield margin
-            elif not _closes_in(obstacle, clocks[i] + step, off, robots, d_now,
-                                bound + self.yield_margin):
-                self._obstacle_held[i] = 0.0
-                clocks[i] += step
-                continue
-            self._obstacle_held[i] += dt  # hold: wait for the robot ...
-            if self._obstacle_held[i] >= self.turn_back_after:
-                self._obstacle_held[i] = 0.0
-                keep = bound + (self.pass_margin if self._obstacle_passing[i]
-                                else self.yield_margin)
-                if not _closes_in(obstacle, clocks[i] - step, off, robots, d_now, keep):
-                    self._obstacle_dir[i] = -self._obstacle_dir[i]  # ... then turn back
-                else:  # both ways lead past a robot: step aside and walk past it
-                    self._obstacle_passing[i] = True
-        self.obstacle_clocks = tuple(
-            c if not o else ObstacleState(c, o[0], o[1]) for c, o in zip(clocks, offsets,
-                                                                          strict=True))
-
-    def _pass_step(self, i: int, step: float, robots: list[tuple[float, float]],
-                   d_now: list[float], at: tuple[float, float]) -> bool:
-        """One step of obstacle ``i`` walking past a robot it could not wait out; whether
-        it moved.
-
-        It walks on along its path while edging sideways, away from the nearest robot, by
-        up to its speed per step (at most ``sidestep_max`` off its path, and only onto
-        cells its body clears), while that step keeps it beyond ``pass_margin`` of every
-        robot's bounding circle.  Where no such step exists (the robot stands in its way
-        too close to pass) it backs away from the robot, off its path (up to
-        ``step_away_max``; along a wall when the straight way is blocked), and holds once
-        it can do neither: it makes room as a person does, and the robot can then pass.
-        """
-        obstacle, bound = self._moving_bounds[i]
-        clock, off, keep = self._clocks[i], self._offsets[i], bound + self.pass_margin
-        ax, ay, heading = obstacle.pose_at(clock)
-        bx, by, _ = obstacle.pose_at(clock + step)
-        if bx != ax or by != ay:  # the path's own direction (a box may keep a fixed yaw)
-            heading = math.atan2(by - ay, bx - ax)
-        nx, ny = -math.sin(heading), math.cos(heading)
-        rx, ry = robots[min(range(len(robots)), key=d_now.__getitem__)]
-        side = 1.0 if (at[0] - rx) * nx + (at[1] - ry) * ny >= 0.0 else -1.0
-        edge = obstacle.speed * abs(step)
-        ox, oy = off if off else (0.0, 0.0)
-        lateral = max(-self.sidestep_max, min(self.sidestep_max,
-                                              ox * nx + oy * ny + side * edge))
-        aside = (ox + (lateral - (ox * nx + oy * ny)) * nx,
-                 oy + (lateral - (ox * nx + oy * ny)) * ny)
-        passing: list[tuple[float, tuple[float, float] | None]] = [
-            (clock + step, aside), (clock + step, off), (clock, aside)]
-        backing: list[tuple[float, tuple[float, float] | None]] = []
-        gap = min(d_now)
-        if gap > 0.0:  # back away from the nearest robot (straight, else along a wall)
-            ux, uy = (at[0] - rx) / gap * edge, (at[1] - ry) / gap * edge
-            for dx, dy in ((ux, uy), (ux, 0.0), (0.0, uy)):
-                away = (ox + dx, oy + dy)
-                if math.hypot(*away) <= self.step_away_max:
-                    backing.append((clock, away))
-        # once it has started to back away it keeps doing so until clear of the robot
-        # (walking on again at once would close in, back away, close in ... in place)
-        candidates = backing if self._obstacle_backing[i] else passing + backing
-        for k, (clock_next, off_next) in enumerate(candidates):
-            if clock_next == clock and off_next == off:
-                continue
-            if not self._clear_of_walls(obstacle, clock_next, off_next):
-                continue
-            if _closes_in(obstacle, clock_next, off_next, robots, d_now, keep):
-                continue
-            if candidates is not backing and k >= len(passing):
-                self._obstacle_backing[i] = True
-            self._obstacle_held[i] = 0.0 if clock_next != clock else self._obstacle_held[i]
-            self._clocks[i] = clock_next
-            self._offsets[i] = off_next if off_next != (0.0, 0.0) else None
-            return True
-        return False
-
-    def _clear_of_walls(self, obstacle: MovingObstacle, clock: float,
-                        off: tuple[float, float] | None) -> bool:
-        """Whether the obstacle's body at ``clock`` + ``off`` clears the static grid (on
-        its path it always may be: paths are the world author's)."""
-        if not off:
-            return True
-        x, y, _ = obstacle.pose_at(clock)
-        w = self.world
-        col = math.floor((x + off[0] - w.origin_x) / w.resolution)
-        row = math.floor((y + off[1] - w.origin_y) / w.resolution)
-        if not (0 <= row < self._dist.shape[0] and 0 <= col < self._dist.shape[1]):
-            return True  # outside the grid is free space
-        extent = obstacle.radius if obstacle.shape == "circle" else 0.5 * math.hypot(*obstacle.size)
-        return bool(self._dist[row, col] >= extent + w.resolution)
-
     def _collides(self, state: RobotState) -> bool:
         """Footprint contact at ``state``, with a cheap broad phase first.
 
@@ -395,8 +221,8 @@ class Simulator:
         if 0 <= row < self._dist.shape[0] and 0 <= col < self._dist.shape[1]:
             near_static = self._dist[row, col] <= self._broad_radius
         near_moving = False
-        for (obstacle, bound), clock, near in zip(self._moving_bounds, self.obstacle_clocks,
-                                                  self._obstacle_near, strict=True):
+        for (obstacle, bound), clock, near in zip(self.walkers.bounds, self.obstacle_clocks,
+                                                  self.obstacle_near, strict=True):
             if not near:  # more than yield_margin away: cannot touch within one step
                 continue
             ox, oy, _ = obstacle.pose_in(clock)
