@@ -234,9 +234,14 @@ class FrontierExplorer:
         """Whether the goal already sent for the current target is as good a viewpoint as
         its best one now, within ``retarget_hysteresis``: then it stays, instead of the
         goal hopping between two near-equal viewpoints at every plan (each hop a new
-        goal, and the robot stops to start it)."""
+        goal, and the robot stops to start it).  It must still be one of the frontier's
+        approach cells (near enough to it, and roomy where those are asked for)."""
         strategy = self.strategy
         assert strategy is not None
+        r, c = view.cell_of(*old_goal)
+        f = current.frontier
+        if not np.any((f.approach_rows == r) & (f.approach_cols == c)):
+            return False
         old = strategy.viewpoint_utility(fs, view, robot, old_goal)
         new = strategy.viewpoint_utility(fs, view, robot, current.goal)
         if old is None or new is None or old <= 0.0:
