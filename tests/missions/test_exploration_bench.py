@@ -55,7 +55,7 @@ def test_budgets_per_strategy_per_world_and_the_better_strategy() -> None:
 
 
 def test_goal_to_first_motion_p95_is_over_every_goal_of_the_bench() -> None:
-    """A run sends 3-10 goals to a standing robot: its own p95 is its slowest start.  The
+    """A run sends 1-6 goals to a standing robot: its own p95 is its slowest start.  The
     budget is on the p95 of all goals; the worst run's p95 is reported beside it."""
     refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
     cases = []

@@ -12,7 +12,7 @@ explore_mission`, the ``navstack mission explore`` setup) and returns home.  Per
 * SLAM map update latency (scan -> ``/map``: the simulated wait for the update plus the
   wall time the update took, :class:`~navstack.interfaces.mission_eval.SlamLatency`) and
   goal-to-first-motion, p95 (the bench's
-  goal-to-first-motion p95 is over every goal of all its runs -- a run sends only 3-10
+  goal-to-first-motion p95 is over every goal of all its runs -- a run sends only 1-6
   goals to a standing robot, so a run's own p95 is its slowest start; the worst run's
   is reported beside it);
 * success = SUCCEEDED, >= 95 % observed, home within 0.3 m, no collision.
@@ -167,7 +167,7 @@ def summarize(cases: list[dict[str, Any]], refs: dict[str, dict[str, float]],
              if not math.isnan(b := c.get("slam_map_latency_bound_p95_s", math.nan))]
     m["slam_map_latency_bound_p95_s"] = max(bound) if bound else math.nan
     # the p95 of every goal sent to a standing robot in the bench's runs: a run has only
-    # 3-10 such goals, so its own "p95" is its slowest one (reported beside it)
+    # 1-6 such goals, so its own "p95" is its slowest one (reported beside it)
     m["goal_to_first_motion_p95_s"] = float(np.percentile(delays, 95)) if delays else math.nan
     m["goal_to_first_motion_samples"] = float(len(delays))
     m["goal_to_first_motion_worst_run_p95_s"] = max(per_run) if per_run else math.nan
