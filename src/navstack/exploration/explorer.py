@@ -11,7 +11,9 @@ or the benchmark's reference) calls ``planner_frequency`` times per second:
    drop it when its frontier has been observed (its cells are no longer frontier);
 3. pick the best target (:mod:`.strategies`) and say whether to send a new goal:
    explore_lite semantics re-send whenever the best goal moves, the information-gain
-   strategy keeps its target unless another is ``retarget_hysteresis`` better, and
+   strategy keeps its target unless another is ``retarget_hysteresis`` better (and the
+   goal it sent while that goal is still an approach cell within ``retarget_hysteresis``
+   of the target's best viewpoint), and
    looks ahead: within ``lookahead_distance`` (path) of the goal it drives to -- once
    the unknown area visible from that goal is down to ``lookahead_gain_fraction`` of
    what it was chosen for -- it sends the next target, so the robot does not slow to a
