@@ -32,8 +32,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+# one test process per core (at most 4; pytest-xdist), the long integration runs handed to
+# whichever process is free (--dist worksteal); `PYTEST_ARGS=-n0` runs them in one process
+PYTEST_ARGS ?= -n auto --maxprocesses=4 --dist worksteal
 pytest: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 # the user guide into site/, every warning an error; the reference pages are generated
 # from the code by docs/hooks/ during the build (nothing generated is committed)
