@@ -22,7 +22,6 @@ import inspect
 import io
 import pkgutil
 import re
-import textwrap
 import tokenize
 import types
 import typing
@@ -126,19 +125,57 @@ def _own_doc(cls: type) -> str:
     return inspect.cleandoc(doc) if isinstance(doc, str) else ""
 
 
+@dataclass(frozen=True)
+class _SourceFile:
+    """A source file read once: its lines, its comments by line number and its classes by
+    qualified name.  (``inspect.getsource`` re-parses the whole module for every class
+    it is asked for, which made the reference the slowest part of the docs build.)"""
+
+    lines: list[str]
+    comments: dict[int, str]
+    classes: dict[str, ast.ClassDef]
+
+
+@functools.cache
+def _source_file(filename: str) -> _SourceFile:
+    with tokenize.open(filename) as f:
+        text = f.read()
+    comments = {tok.start[0]: tok.string.lstrip("#").strip()
+                for tok in tokenize.generate_tokens(io.StringIO(text).readline)
+                if tok.type == tokenize.COMMENT}
+    classes: dict[str, ast.ClassDef] = {}
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef):
+                classes[prefix + child.name] = child
+                visit(child, f"{prefix}{child.name}.")
+            elif isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                visit(child, f"{prefix}{child.name}.<locals>.")
+
+    visit(ast.parse(text, filename), "")
+    return _SourceFile(text.splitlines(), comments, classes)
+
+
+def _class_node(cls: type) -> tuple[_SourceFile, ast.ClassDef] | None:
+    try:
+        filename = inspect.getsourcefile(cls)
+    except TypeError:
+        return None
+    if filename is None:
+        return None
+    src = _source_file(filename)
+    node = src.classes.get(cls.__qualname__)
+    return (src, node) if node is not None else None
+
+
 def field_notes(cls: type) -> dict[str, str]:
     """Per field defined in ``cls`` itself: its attribute docstring and comments."""
-    try:
-        source = textwrap.dedent(inspect.getsource(cls))
-    except (OSError, TypeError):
+    found = _class_node(cls)
+    if found is None:
         return {}
-    lines = source.splitlines()
-    comments: dict[int, str] = {}
-    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
-        if tok.type == tokenize.COMMENT:
-            comments[tok.start[0]] = tok.string.lstrip("#").strip()
-    tree = ast.parse(source)
-    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+    src, node = found
+    lines, comments, body = src.lines, src.comments, node.body
     notes: dict[str, str] = {}
     label = ""  # a group label comment (``# navstack additions``) applies until a blank line
     for i, stmt in enumerate(body):
