@@ -15,11 +15,11 @@ OUT ?= runs/demo
 
 venv: $(STAMP)
 
+# uv resolves and installs the same pins as pip in seconds rather than minutes; pip is the
+# fallback where uv cannot run
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip uv
-	# uv resolves and installs the same pins as pip in seconds rather than minutes; pip
-	# is the fallback where uv cannot run
 	$(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev,docs]' \
 		|| $(BIN)/python -m pip install --quiet -e '.[dev,docs]'
 	touch $(STAMP)
