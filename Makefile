@@ -19,8 +19,9 @@ venv: $(STAMP)
 # fallback where uv cannot run
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip uv
-	$(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev,docs]' \
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	( $(BIN)/python -m pip install --quiet uv \
+		&& $(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev,docs]' ) \
 		|| $(BIN)/python -m pip install --quiet -e '.[dev,docs]'
 	touch $(STAMP)
 
