@@ -146,3 +146,26 @@ def test_closures_against_one_submap_do_not_confirm_each_other() -> None:
     off = SlamMapper(SlamParams(loop_match_confirmation_distinct_submaps=False), LASER)
     assert off.submaps.confirm([_closure(5, 30, poses)], 30, poses) == []
     assert len(off.submaps.confirm([_closure(5, 32, poses)], 32, poses)) == 2
+
+
+def _shifted(closure: LoopClosure, dy: float) -> LoopClosure:
+    """The same closure, its node placed ``dy`` [m] sideways of where it is now."""
+    meas = closure.measurement + np.array([0.0, dy, 0.0])
+    return LoopClosure(closure.anchor, closure.node, meas, closure.covariance,
+                       closure.response, False)
+
+
+def test_small_closures_against_one_submap_confirm_each_other_when_allowed() -> None:
+    """Back at the start, turning on the spot, only the start's submap is in view: two
+    agreeing closures against it, each moving the robot 0.36 m (warehouse seed 4's
+    drift home), confirm each other with ``loop_match_same_submap_confirmation_distance``
+    0.5 m; two that move it 1.0 m still wait for another submap."""
+    poses = np.column_stack((np.arange(40) * 0.3, np.zeros(40), np.zeros(40)))
+    mapper = SlamMapper(SlamParams(loop_match_same_submap_confirmation_distance=0.5), LASER)
+    closer = mapper.submaps
+    assert closer.confirm([_shifted(_closure(5, 30, poses), 0.36)], 30, poses) == []
+    accepted = closer.confirm([_shifted(_closure(5, 32, poses), 0.36)], 32, poses)
+    assert {(c.anchor, c.node) for c in accepted} == {(5, 30), (5, 32)}
+    far = SlamMapper(SlamParams(loop_match_same_submap_confirmation_distance=0.5), LASER)
+    assert far.submaps.confirm([_shifted(_closure(5, 30, poses), 1.0)], 30, poses) == []
+    assert far.submaps.confirm([_shifted(_closure(5, 32, poses), 1.0)], 32, poses) == []

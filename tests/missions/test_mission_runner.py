@@ -138,3 +138,40 @@ def test_return_home_runs_its_between_behaviour_before_each_retry() -> None:
     assert result.status is MissionStatus.FAILED
     assert result.reason.startswith("ReturnHome: could not return home in 2 attempts: ")
     assert count.runs == 1
+
+
+def test_return_home_relocalises_once_and_drives_back_when_home_moved() -> None:
+    """A relocalising behaviour that moves the estimate (here: home, by 0.5 m, as a
+    loop closure at home would move the robot's pose) makes ReturnHome drive again."""
+    from py_trees.behaviour import Behaviour
+    from py_trees.common import Status
+
+    stack = tb3_stack()
+    ctx = MissionContext(stack.runtime)
+    spawn = stack.description.spawn
+
+    class Shift(Behaviour):
+        def __init__(self) -> None:
+            super().__init__("Shift")
+            self.runs = 0
+
+        def update(self) -> Status:
+            self.runs += 1
+            home = ctx.results["home"]
+            ctx.results["home"] = Pose2D(home.x, home.y + 0.5, home.theta)
+            return Status.SUCCESS
+
+    shift = Shift()
+    root = Sequence("go", memory=True, children=[
+        RememberHome(ctx), NavigateToPose(ctx, Pose2D(2.0, 1.9, 0.0), name="Centre"),
+        ReturnHome(ctx, relocalise=shift)])
+    result = MissionRunner(stack.runtime, Mission("relocalise", root, ctx)).run(timeout=180.0)
+    assert result.status is MissionStatus.SUCCEEDED, result.reason
+    assert shift.runs == 1
+    texts = [text for _, text in result.events]
+    again = [float(t.split(" is ")[1].split(" m ")[0]) for t in texts
+             if t.startswith("ReturnHome: after Shift home is ") and t.endswith("driving back")]
+    assert len(again) == 1 and 0.3 < again[0] < 0.7, texts  # 0.5 m less the arrival error
+    p = stack.sim.sim.pose
+    assert math.hypot(p.x - spawn.x, p.y - (spawn.y + 0.5)) <= 0.3
+    assert stack.sim.sim.collisions == 0

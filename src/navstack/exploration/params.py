@@ -46,6 +46,10 @@ class ExploreParams(Params):
     costmap_topic: str = "/global_costmap/costmap"
     robot_base_frame: str = "base_link"
     # --- navstack ---
+    look_around_at_home: bool = True
+    """With ``return_to_init``: on arriving home, turn a full circle before judging the
+    distance, then drive back if the estimate moved (SLAM closes its loop with the start's
+    scans during the turn; :class:`~navstack.missions.behaviours.ReturnHome`)."""
     strategy: StrategyName = "information_gain"
     """``explore_lite``: the cost above; ``information_gain``: visible unknown area
     discounted by path distance; ``nearest``: Yamauchi's nearest frontier

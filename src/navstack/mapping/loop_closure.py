@@ -143,6 +143,9 @@ class LoopCloser:
         ``loop_match_confirmation_nodes`` nodes (pending ones it confirms included).  A
         true revisit yields a run of closures that all imply the same correction of the
         new path; a false match (an alias that passed every test) is usually alone.
+        The partner must be against another submap
+        (``loop_match_confirmation_distinct_submaps``), except between closures that each
+        move their node by at most ``loop_match_same_submap_confirmation_distance``.
         Unconfirmed closures wait that many nodes, then are dropped."""
         window = self.mapper.params.loop_match_confirmation_nodes
         if window <= 0:
@@ -150,11 +153,16 @@ class LoopCloser:
         self._pending = [c for c in self._pending if node_id - c.node <= window]
         self._recent = [c for c in self._recent if node_id - c.node <= window]
         distinct = self.mapper.params.loop_match_confirmation_distinct_submaps
+        small = self.mapper.params.loop_match_same_submap_confirmation_distance
         accepted: list[LoopClosure] = []
         for c in found:
-            partners = [o for o in (*self._recent, *self._pending, *found)
-                        if o is not c and not (distinct and o.anchor == c.anchor)
+            others = [o for o in (*self._recent, *self._pending, *found) if o is not c]
+            partners = [o for o in others if not (distinct and o.anchor == c.anchor)
                         and _agree(c, o, poses)]
+            if not partners and distinct and small > 0.0 \
+                    and _correction(c, poses) <= small:
+                partners = [o for o in others if o.anchor == c.anchor and o.node != c.node
+                            and _correction(o, poses) <= small and _agree(c, o, poses)]
             if not partners:
                 self._pending.append(c)
                 continue
@@ -463,6 +471,14 @@ def _agree(a: LoopClosure, b: LoopClosure, poses: FloatArray) -> bool:
     floor = np.diag([(_SIGMA_FLOOR_M * chain) ** 2] * 2 + [(_SIGMA_FLOOR_RAD * chain) ** 2])
     cov = a.covariance + b.covariance + floor
     return float(d @ np.linalg.solve(cov, d)) <= 9.0
+
+
+def _correction(c: LoopClosure, poses: FloatArray) -> float:
+    """How far [m] the closure would move its node: the node's pose implied by the
+    anchor and the measurement against its pose now."""
+    implied = _compose(poses[c.anchor], c.measurement)
+    return math.hypot(float(implied[0] - poses[c.node, 0]),
+                      float(implied[1] - poses[c.node, 1]))
 
 
 def _compose(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -137,6 +137,12 @@ class SlamParams(Params):
     # navstack: the agreeing closure must be against another submap: two closures against
     # one submap see its aliases alike (docs/mapping.md "Aliased closures")
     loop_match_confirmation_distinct_submaps: bool = True
+    # navstack: ... except that two agreeing closures against one submap confirm each
+    # other when neither moves its node farther than this [m] (0 = off): where only one
+    # submap is in view (back at the start, turning on the spot) nothing else can
+    # confirm, and a closure that small cannot carry an alias's error in
+    # (mapping/loop_closure.py, docs/mapping.md "Aliased closures")
+    loop_match_same_submap_confirmation_distance: float = Field(0.0, ge=0.0)
     loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
     # navstack: a closure's fine response must reach this share of the ordinary links'

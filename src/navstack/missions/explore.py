@@ -53,7 +53,13 @@ from navstack.core.msgs import (
 )
 from navstack.exploration import DecisionKind, ExploreParams, FrontierExplorer, GridView
 from navstack.exploration.explorer import Decision
-from navstack.missions.behaviours import MissionBehaviour, RememberHome, ReturnHome, WaitFor
+from navstack.missions.behaviours import (
+    LookAround,
+    MissionBehaviour,
+    RememberHome,
+    ReturnHome,
+    WaitFor,
+)
 from navstack.missions.context import MissionContext
 from navstack.missions.mission import Mission
 from navstack.navigation import messages as m
@@ -532,7 +538,9 @@ def explore_mission(ctx: MissionContext, params: ExploreParams | None = None,
         steps += [Escape(ctx, circumscribed_radius, name="EscapeBeforeHome", required=False),
                   ReturnHome(ctx, tolerance=home_tolerance,
                              between=Escape(ctx, circumscribed_radius, name="EscapeBeforeRetry",
-                                            required=False))]
+                                            required=False),
+                             relocalise=LookAround(ctx, name="LookAroundAtHome")
+                             if p.look_around_at_home else None)]
     root = Sequence("explore", memory=True, children=steps)
 
     def summary() -> dict[str, Any]:
