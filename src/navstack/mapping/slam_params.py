@@ -141,7 +141,7 @@ class SlamParams(Params):
     # other when neither moves its node farther than this [m] (0 = off): where only one
     # submap is in view (back at the start, turning on the spot) nothing else can
     # confirm, and a closure that small cannot carry an alias's error in
-    # (mapping/loop_closure.py, docs/mapping.md "Aliased closures")
+    # (mapping/loop_closure.py, docs/mapping.md "Back at the start")
     loop_match_same_submap_confirmation_distance: float = Field(0.0, ge=0.0)
     loop_search_node_interval: int = Field(3, ge=1)
     loop_closure_maximum_chi2: float = Field(200.0, gt=0.0)
