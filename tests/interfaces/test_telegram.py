@@ -49,7 +49,8 @@ class Setup:
 
 
 @pytest.fixture
-def setup(request: pytest.FixtureRequest, caplog: pytest.LogCaptureFixture) -> Iterator[Setup]:
+def setup(request: pytest.FixtureRequest, caplog: pytest.LogCaptureFixture,
+          navigation_compiled: None) -> Iterator[Setup]:
     """The bot on a live office stack; ``indirect`` parametrisation paces the simulation
     (a real-time factor) where a test needs the drive to outlast wall-clock progress."""
     caplog.set_level(logging.DEBUG)  # everything the libraries log is checked for the token

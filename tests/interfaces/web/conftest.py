@@ -83,7 +83,7 @@ def start_live(real_time_factor: float | None) -> Live:
 
 
 @pytest.fixture
-def live() -> Iterator[Live]:
+def live(navigation_compiled: None) -> Iterator[Live]:
     """Dashboard over an unthrottled simulation (tests measure simulated time)."""
     lv = start_live(None)
     try:
