@@ -20,10 +20,19 @@ def navigation_compiled() -> None:
     test (CI, eighth session: the Telegram goal test timed out there)."""
     from navstack.core.msgs import Pose2D
     from navstack.interfaces.stack import NavStack
-    from navstack.missions import Mission, MissionContext, MissionRunner, NavigateToPose
+    from navstack.missions import (
+        Mission,
+        MissionContext,
+        MissionRunner,
+        MissionStatus,
+        NavigateToPose,
+    )
 
     stack = NavStack("office", seed=1).start()
     ctx = MissionContext(stack.runtime)
     spawn = stack.description.spawn
     goal = NavigateToPose(ctx, Pose2D(spawn.x + 0.5, spawn.y, spawn.theta), name="warm-up")
-    MissionRunner(stack.runtime, Mission("warm-up", goal, ctx)).run(timeout=60.0)
+    result = MissionRunner(stack.runtime, Mission("warm-up", goal, ctx)).run(timeout=60.0)
+    # a warm-up that failed to drive would leave the kernels uncompiled: say so here
+    # rather than as a wall-clock timeout in the test that depends on it
+    assert result.status is MissionStatus.SUCCEEDED, f"navigation warm-up: {result.reason}"
