@@ -14,6 +14,7 @@ import pytest
 from navstack.core.errors import ConfigError
 from navstack.core.msgs import Pose2D, PoseStamped
 from navstack.navigation import messages as m
+from navstack.navigation.bt_composites import recovery_running
 from navstack.navigation.bt_navigator import BtNavigatorParams, NavigateResult
 from navstack.navigation.trees import NavigateTreeParams
 from navstack.runtime.actions import ActionClient, GoalStatus
@@ -139,11 +140,33 @@ def test_new_goal_during_a_recovery_halts_it_and_navigates_to_the_new_goal() -> 
     second = h.goal(0.0, 2.0)
     assert first.status is GoalStatus.CANCELED
     res = h.run_until_done(second)
-    # GoalUpdated ends the recovery at the next tick: the 5 s Wait is cancelled
-    assert ("cancel", pytest.approx(t_wait + 0.05)) in h.behaviors.events
+    # the new goal halts the tree at once: the 5 s Wait is cancelled in the same instant
+    assert ("cancel", pytest.approx(t_wait)) in h.behaviors.events
     assert res.status is GoalStatus.SUCCEEDED
     assert res.result == NavigateResult(0, pytest.approx(h.rt.now - t_wait))
     assert h.base.pose.distance_to(Pose2D(0.0, 2.0)) < 1e-9
+
+
+def test_a_preempting_goal_gets_the_recoveries_of_a_fresh_tree() -> None:
+    """The tree keeps running for the new goal, but not with the old goal's spent retries
+    and round-robin place: its first recovery is the first action again, and it has all
+    six (office seed 4: a goal moved onto a stuck robot met a 5 s Wait, not BackUp)."""
+    h = make_harness(FAST, mode="fail")
+    first = h.goal(5.0, 0.0)
+    h.rt.scheduler.run_until(60.0, until=lambda: "wait" in h.behaviors.names())
+    assert h.nav.tree is not None
+    h.rt.scheduler.run_until(60.0, until=lambda: not recovery_running(h.nav.tree))
+    assert first.status is GoalStatus.EXECUTING
+    tree = h.nav.tree
+    h.behaviors.events.clear()
+    second = h.goal(0.0, 2.0)
+    assert first.status is GoalStatus.CANCELED and h.nav.tree is tree  # kept, not rebuilt
+    res = h.run_until_done(second)
+    assert res.status is GoalStatus.FAILED
+    assert h.behaviors.names("clear_global", "spin", "wait", "backup") == [
+        "clear_global", "spin", "wait", "backup", "clear_global", "spin"]
+    assert res.error_msg.startswith("could not reach the goal after 6 recoveries")
+    assert isinstance(res.result, NavigateResult) and res.result.number_of_recoveries == 6
 
 
 def test_retries_parameter_and_failing_recovery_are_reported() -> None:

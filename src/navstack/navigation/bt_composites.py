@@ -110,6 +110,11 @@ class RecoveryNode(py_trees.composites.Composite):
         self.retry_count = 0
         self._index = 0
 
+    @property
+    def recovering(self) -> bool:
+        """True while the node runs its recovery child (child 2)."""
+        return self.status == Status.RUNNING and self._index == 1
+
     def _finish(self, status: Status) -> None:
         self._index = 0
         halt_children(self)
@@ -199,6 +204,24 @@ class RoundRobin(py_trees.composites.Composite):
             self.next_index = 0
             self._failed = 0
         super().stop(new_status)
+
+
+def recovery_running(root: Behaviour) -> bool:
+    """True while any :class:`RecoveryNode` of the tree is running its recovery child."""
+    return any(isinstance(node, RecoveryNode) and node.recovering for node in root.iterate())
+
+
+def rewind_recoveries(root: Behaviour) -> None:
+    """Give a running tree the recovery state of a fresh one, for a new goal: every
+    :class:`RecoveryNode` has all its retries again and every :class:`RoundRobin` starts
+    from its first child.  Call it only when no recovery runs (:func:`recovery_running`):
+    a running round robin keeps its place."""
+    for node in root.iterate():
+        if isinstance(node, RecoveryNode):
+            node.retry_count = 0
+        elif isinstance(node, RoundRobin) and node.status != Status.RUNNING:
+            node.next_index = 0
+            node._failed = 0
 
 
 class RateController(py_trees.decorators.Decorator):

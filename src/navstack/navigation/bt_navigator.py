@@ -8,11 +8,19 @@ and tick the tree every ``bt_loop_duration`` seconds, publishing ``NavigateFeedb
 every tick.  A goal that fails validation leaves a running goal untouched.
 
 Preemption (Nav2 ``onPreempt``): a valid new goal for the running navigator and tree
-updates ``goal``/``goals`` in place -- the tree keeps running, ``GlobalUpdatedGoal``
-triggers a replan and ``GoalUpdated`` ends a running recovery -- while the old goal ends
-CANCELED with reason "preempted by a new goal"; navigation time and recovery count
-restart.  A goal for the other navigator or another tree halts the running tree and
-starts a fresh one (Nav2 would reject it).  Cancel halts the tree, which cancels the
+updates ``goal``/``goals`` in place -- the tree keeps running and ``GlobalUpdatedGoal``
+triggers a replan -- while the old goal ends CANCELED with reason "preempted by a new
+goal"; navigation time and recovery count restart.  Unlike Nav2, whose tree carries the
+old goal's spent retries and round-robin place into the new goal, the new goal gets the
+recoveries of a fresh tree: every ``RecoveryNode`` has all its retries and the
+``RecoveryActions`` round robin starts again from its first action
+(:func:`.rewind_recoveries`).  A goal that arrives while a recovery runs halts the tree
+and starts a fresh one, ending the recovery at once (the old goal was its reason).  An
+explorer that moves its goal every few seconds while the robot is stuck would otherwise
+meet its new goals with the old one's escalation -- a 5 s ``Wait`` where the first
+action was backing away (docs/missions.md, "Measured": the ninth session).  A goal for the other
+navigator or another tree also halts the running tree and starts a fresh one (Nav2
+would reject it).  Cancel halts the tree, which cancels the
 running planner/controller/behavior goals, and ends CANCELED.  A failure's reason is a
 sentence composed from the failing nodes' records ("could not reach the goal after 6
 recoveries: FollowPath failed: ...", "no path to the goal: planner says ...").
@@ -59,6 +67,7 @@ from navstack.core.geometry import MAX_COORDINATE
 from navstack.core.msgs import NavigationHold, Pose2D, PoseStamped
 from navstack.core.params import Params
 from navstack.navigation import messages as m
+from navstack.navigation.bt_composites import recovery_running, rewind_recoveries
 from navstack.navigation.bt_nodes import (
     FAILURES_KEY,
     PLAN_START_KEY,
@@ -270,7 +279,9 @@ class BtNavigator(Node):
         run = self._run
         if run is not None:
             old, old_result = run.handle, self._result(run)
-            if run.kind == kind and run.tree_name == tree_name:
+            if (run.kind == kind and run.tree_name == tree_name
+                    and not recovery_running(run.root)):
+                rewind_recoveries(run.root)
                 run.handle, run.start = handle, self.now
                 self._write_goal(kind, goal_poses)
                 handle.execute()
