@@ -193,17 +193,20 @@ class RoundRobin(py_trees.composites.Composite):
                 yield self
                 return
             self._failed += 1
-        self._failed = 0
-        self.next_index = 0
+        self.rewind()
         halt_children(self)
         self.stop(Status.FAILURE)
         yield self
 
     def stop(self, new_status: Status = Status.INVALID) -> None:
         if new_status == Status.INVALID and self.status == Status.RUNNING:
-            self.next_index = 0
-            self._failed = 0
+            self.rewind()
         super().stop(new_status)
+
+    def rewind(self) -> None:
+        """Start the next entry from the first child."""
+        self.next_index = 0
+        self._failed = 0
 
 
 def recovery_running(root: Behaviour) -> bool:
@@ -220,8 +223,7 @@ def rewind_recoveries(root: Behaviour) -> None:
         if isinstance(node, RecoveryNode):
             node.retry_count = 0
         elif isinstance(node, RoundRobin) and node.status != Status.RUNNING:
-            node.next_index = 0
-            node._failed = 0
+            node.rewind()
 
 
 class RateController(py_trees.decorators.Decorator):
