@@ -13,26 +13,16 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 @pytest.fixture(scope="session")
 def navigation_compiled() -> None:
-    """Drive the office robot to one goal in plain simulated time, so that the planner,
-    controller and costmap kernels (``numba.njit(cache=True)``) are compiled -- or loaded
-    from the cache -- before a test that waits on the wall clock.  On a fresh clone the
+    """Drive a twin of the office robot half a metre in plain simulated time (what
+    ``navstack run`` does before it serves), so that the planner, controller and costmap
+    kernels (``numba.njit(cache=True)``) are compiled -- or loaded from the cache --
+    before a test that waits on the wall clock.  On a fresh clone the
     first goal's compilation took longer than ``LiveRunner.call``'s 10 s in a live-runner
     test (CI, eighth session: the Telegram goal test timed out there)."""
-    from navstack.core.msgs import Pose2D
     from navstack.interfaces.stack import NavStack
-    from navstack.missions import (
-        Mission,
-        MissionContext,
-        MissionRunner,
-        MissionStatus,
-        NavigateToPose,
-    )
+    from navstack.interfaces.warm_up import warm_up_navigation
 
-    stack = NavStack("office", seed=1).start()
-    ctx = MissionContext(stack.runtime)
-    spawn = stack.description.spawn
-    goal = NavigateToPose(ctx, Pose2D(spawn.x + 0.5, spawn.y, spawn.theta), name="warm-up")
-    result = MissionRunner(stack.runtime, Mission("warm-up", goal, ctx)).run(timeout=60.0)
+    result = warm_up_navigation(NavStack("office", seed=1))
     # a warm-up that failed to drive would leave the kernels uncompiled: say so here
     # rather than as a wall-clock timeout in the test that depends on it
-    assert result.status is MissionStatus.SUCCEEDED, f"navigation warm-up: {result.reason}"
+    assert result.reached, f"navigation warm-up: {result.reason}"

@@ -6,6 +6,10 @@ thread, one e-stop latch).  ``navstack run`` lets the runner step the stack in a
 thread until Ctrl-C (or ``--duration``); ``navstack demo`` keeps stepping from its own
 mission loop and the runner serves the viewers from scheduler ticks
 (:meth:`LiveRunner.start_in_caller`).
+
+A session whose operator sends the goals (``navstack run``, ``navstack telegram``) first
+warms the navigation kernels on a twin of the stack (:func:`warm_up`), so the first goal
+does not wait for their compilation.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from typing import Any
 
 from navstack.interfaces.live_runner import LiveRunner
 from navstack.interfaces.stack import NavStack
+from navstack.interfaces.warm_up import warm_up_navigation
 
 
 @dataclass(frozen=True)
@@ -94,9 +99,24 @@ def attach_to_demo(options: LiveOptions) -> Callable[[NavStack], Callable[[], No
     return attach
 
 
+def warm_up(stack: NavStack) -> None:
+    """Compile (or load) the navigation kernels on a twin of ``stack`` before the live
+    session opens (:mod:`navstack.interfaces.warm_up`); says so on stderr."""
+    print("navstack: warming up navigation (the first run after an install compiles it: "
+          "up to a minute)", file=sys.stderr, flush=True)
+    result = warm_up_navigation(stack)
+    if result.reached:
+        print(f"navstack: navigation warm in {result.seconds:.1f} s", file=sys.stderr,
+              flush=True)
+    else:
+        print(f"warning: the warm-up drive did not reach its goal ({result.reason}); the "
+              f"first goal may start late", file=sys.stderr, flush=True)
+
+
 def run_live(stack: NavStack, options: LiveOptions, duration: float | None = None) -> float:
     """Run ``stack`` in real time with the requested viewers until Ctrl-C or ``duration``
-    simulated seconds; returns the simulated time reached."""
+    simulated seconds, after :func:`warm_up`; returns the simulated time reached."""
+    warm_up(stack)
     runner = LiveRunner(stack, real_time_factor=options.real_time_factor)
     handles = open_viewers(runner, options)
     end = None if duration is None else stack.now + duration

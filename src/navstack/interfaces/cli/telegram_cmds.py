@@ -39,7 +39,7 @@ def telegram(
     """Run the stack live and answer a Telegram bot: a location sends the robot to the
     nearest target, 1 stops it, /help lists the commands."""
     from navstack.interfaces.credentials import read_secret
-    from navstack.interfaces.live_cli import LiveOptions, close_viewers, open_viewers
+    from navstack.interfaces.live_cli import LiveOptions, close_viewers, open_viewers, warm_up
     from navstack.interfaces.live_runner import LiveRunner
     from navstack.interfaces.stack import NavStack
     from navstack.interfaces.telegram import TelegramBot, TelegramParams, load_targets
@@ -55,6 +55,7 @@ def telegram(
             {"allowed_chats": allow, "api_url": api_url, "progress_period": progress},
             key_path="telegram")
         stack = NavStack(world, robot, seed=seed)
+        warm_up(stack)
         runner = LiveRunner(stack, real_time_factor=rate)
         handles = open_viewers(runner, LiveOptions(web=web, port=port,
                                                    real_time_factor=rate))
