@@ -30,7 +30,7 @@ def test_the_reference_is_the_greedy_explorer_at_the_navigation_speed() -> None:
     assert 0.0 < ref["reference_time_to_90_s"] < ref["reference_time_to_95_s"] < 60.0
 
 
-def test_budgets_per_strategy_per_world_and_the_better_strategy() -> None:
+def test_budgets_per_strategy_and_of_the_better_strategy_per_world() -> None:
     refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
     cases = [_case("arena", "explore_lite", s, 18.0) for s in range(1, 6)]
     cases += [_case("arena", "information_gain", s, 15.0) for s in range(1, 6)]
@@ -52,6 +52,18 @@ def test_budgets_per_strategy_per_world_and_the_better_strategy() -> None:
     assert "information_gain median time to 90 % 25 s is not below explore_lite's 18 s" in notes
     assert "run arena explore_lite seed 1: FAILED" in notes and notes.count(": lost") == 1
     assert math.isfinite(res.metrics["slam_map_latency_p95_s"])
+
+
+def test_explore_lite_is_the_peer_its_time_ratio_is_reported_not_budgeted() -> None:
+    refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
+    cases = [_case("arena", "explore_lite", s, 29.0) for s in range(1, 6)]
+    cases += [_case("arena", "information_gain", s, 15.0) for s in range(1, 6)]
+    res = BenchResult("exploration")
+    summarize(cases, refs, res)
+    assert res.metrics["arena.explore_lite.ratio_to_reference"] == pytest.approx(2.9)
+    assert res.metrics["budgets_met"] == 1.0
+    assert res.notes == ["peer: arena explore_lite median time to 90 % is 2.90 x the "
+                         "reference (its semantics; not budgeted)"]
 
 
 def test_goal_to_first_motion_p95_is_over_every_goal_of_the_bench() -> None:
