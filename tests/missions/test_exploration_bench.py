@@ -23,6 +23,21 @@ def _case(world: str, strategy: str, seed: int, t90: float, ok: bool = True) -> 
             "max_spin_in_place_s": 5.0}
 
 
+ARENA_REFS = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
+
+
+def _arena_cases(lite_t90: float, gain_t90: float) -> list[dict]:
+    """Five arena runs of each strategy, every one succeeding with these times to 90 %."""
+    return ([_case("arena", "explore_lite", s, lite_t90) for s in range(1, 6)]
+            + [_case("arena", "information_gain", s, gain_t90) for s in range(1, 6)])
+
+
+def _summary(cases: list[dict]) -> BenchResult:
+    res = BenchResult("exploration")
+    summarize(cases, ARENA_REFS, res)
+    return res
+
+
 def test_the_reference_is_the_greedy_explorer_at_the_navigation_speed() -> None:
     assert "exploration" in available_suites()
     ref = reference("arena")
@@ -31,20 +46,15 @@ def test_the_reference_is_the_greedy_explorer_at_the_navigation_speed() -> None:
 
 
 def test_budgets_per_strategy_and_of_the_better_strategy_per_world() -> None:
-    refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
-    cases = [_case("arena", "explore_lite", s, 18.0) for s in range(1, 6)]
-    cases += [_case("arena", "information_gain", s, 15.0) for s in range(1, 6)]
-    res = BenchResult("exploration")
-    summarize(cases, refs, res)
-    m = res.metrics
+    cases = _arena_cases(18.0, 15.0)
+    m = _summary(cases).metrics
     assert m["arena.explore_lite.ratio_to_reference"] == pytest.approx(1.8)
     assert m["arena.information_gain.ratio_to_reference"] == pytest.approx(1.5)
     assert m["explore_lite.success"] == 5 and m["budgets_met"] == 1.0
     # one failure in five is below 14/15; a slower better strategy breaks its budget
     cases[0] = _case("arena", "explore_lite", 1, 18.0, ok=False)
     cases[5:] = [_case("arena", "information_gain", s, 25.0) for s in range(1, 6)]
-    res = BenchResult("exploration")
-    summarize(cases, refs, res)
+    res = _summary(cases)
     assert res.metrics["budgets_met"] == 0.0
     notes = "\n".join(res.notes)
     assert "budget: explore_lite succeeded in 4 of 5 runs" in notes
@@ -55,11 +65,7 @@ def test_budgets_per_strategy_and_of_the_better_strategy_per_world() -> None:
 
 
 def test_explore_lite_is_the_peer_its_time_ratio_is_reported_not_budgeted() -> None:
-    refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
-    cases = [_case("arena", "explore_lite", s, 29.0) for s in range(1, 6)]
-    cases += [_case("arena", "information_gain", s, 15.0) for s in range(1, 6)]
-    res = BenchResult("exploration")
-    summarize(cases, refs, res)
+    res = _summary(_arena_cases(29.0, 15.0))
     assert res.metrics["arena.explore_lite.ratio_to_reference"] == pytest.approx(2.9)
     assert res.metrics["budgets_met"] == 1.0
     assert res.notes == ["peer: arena explore_lite median time to 90 % is 2.90 x the "
@@ -69,25 +75,18 @@ def test_explore_lite_is_the_peer_its_time_ratio_is_reported_not_budgeted() -> N
 def test_goal_to_first_motion_p95_is_over_every_goal_of_the_bench() -> None:
     """A run sends 1-6 goals to a standing robot: its own p95 is its slowest start.  The
     budget is on the p95 of all goals; the worst run's p95 is reported beside it."""
-    refs = {"arena": {"reference_time_to_90_s": 10.0, "reference_time_to_95_s": 14.0}}
-    cases = []
-    for s in range(1, 6):
-        for strategy in ("explore_lite", "information_gain"):
-            c = _case("arena", strategy, s, 15.0 if strategy == "information_gain" else 18.0)
-            c["goal_to_first_motion_s"] = [0.1] * 9 + [0.7 if s == 1 else 0.1]
-            c["goal_to_first_motion_p95_s"] = 0.43 if s == 1 else 0.1
-            cases.append(c)
-    res = BenchResult("exploration")
-    summarize(cases, refs, res)
-    m = res.metrics
+    cases = _arena_cases(18.0, 15.0)
+    for c in cases:
+        c["goal_to_first_motion_s"] = [0.1] * 9 + [0.7 if c["seed"] == 1 else 0.1]
+        c["goal_to_first_motion_p95_s"] = 0.43 if c["seed"] == 1 else 0.1
+    m = _summary(cases).metrics
     assert m["goal_to_first_motion_samples"] == 100
     assert m["goal_to_first_motion_p95_s"] == pytest.approx(0.1)
     assert m["goal_to_first_motion_worst_run_p95_s"] == pytest.approx(0.43)
     assert m["budgets_met"] == 1.0
     for c in cases:  # one slow start in ten for every run: p95 over the budget
         c["goal_to_first_motion_s"][-1] = 0.7
-    res = BenchResult("exploration")
-    summarize(cases, refs, res)
+    res = _summary(cases)
     assert res.metrics["budgets_met"] == 0.0
     assert "budget: goal-to-first-motion p95 0.70 s > 0.4 s" in "\n".join(res.notes)
 
