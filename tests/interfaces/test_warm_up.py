@@ -7,6 +7,7 @@ import math
 import pytest
 
 from navstack.interfaces.stack import NavStack
+from navstack.interfaces.stack_description import LocalizationName
 from navstack.interfaces.warm_up import STEP_M, _free_goal_near, warm_up_navigation
 
 
@@ -15,9 +16,9 @@ from navstack.interfaces.warm_up import STEP_M, _free_goal_near, warm_up_navigat
     ("arena", "turtlebot3_waffle_pi", "slam"),  # waits for SLAM's first map
     ("campus", "golf_cart", "perfect"),  # Ackermann: straight ahead
 ])
-def test_the_twin_drives_and_the_live_stack_is_left_as_it_was(world: str, robot: str,
-                                                               localization: str) -> None:
-    stack = NavStack(world, robot, seed=1, localization=localization).start()  # type: ignore[arg-type]
+def test_the_twin_drives_and_the_live_stack_is_left_as_it_was(
+        world: str, robot: str, localization: LocalizationName) -> None:
+    stack = NavStack(world, robot, seed=1, localization=localization).start()
     pose = stack.sim.sim.pose
     result = warm_up_navigation(stack)
     assert result.reached and result.reason == ""

@@ -2,7 +2,7 @@
 
 The planners, controllers, costmap layers and SLAM scan matcher are
 ``numba.njit(cache=True)`` kernels: the first call in a fresh install compiles them
-(30-60 s on a 2-core laptop) and writes the cache that every later process loads in
+(58-74 s measured on a busy 2-core machine) and writes the cache that every later process loads in
 well under a second.  In plain simulated time that only delays a run; in a live session
 (``navstack run --web``, ``navstack telegram``) the compilation happens in the simulation
 thread on the operator's first goal, so the robot starts half a minute late and every
